@@ -1,0 +1,69 @@
+"""Crowd tracks on the ground: stable ids and velocities for the localizer's per-frame estimates.
+
+A pure state machine in the style of norfair's ``Tracker.update``: gated nearest-neighbour association
+(Hungarian on ground distance), an alpha-beta filter for position and velocity, tracks that miss
+``max_misses`` consecutive updates are dropped. No I/O, time passed in.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .assignment import assign_optimal
+
+__all__ = ["CrowdTrack", "CrowdTracker"]
+
+
+@dataclass(frozen=True, slots=True)
+class CrowdTrack:
+    track_id: int
+    east_m: float
+    north_m: float
+    v_east_m_s: float
+    v_north_m_s: float
+    stamp_s: float
+    hits: int
+    misses: int
+
+
+@dataclass(frozen=True, slots=True)
+class CrowdTracker:
+    gate_m: float = 10.0
+    alpha: float = 0.6
+    beta: float = 0.2
+    max_misses: int = 10
+    tracks: tuple[CrowdTrack, ...] = ()
+    next_id: int = 1
+
+    def update(self, en_m: np.ndarray, stamp_s: float) -> tuple["CrowdTracker", list[CrowdTrack]]:
+        """Associate this frame's estimates (N, 2); returns the new tracker and one track per estimate."""
+        en = np.asarray(en_m, float).reshape(-1, 2)
+        pred = np.array([[t.east_m + t.v_east_m_s * (stamp_s - t.stamp_s),
+                          t.north_m + t.v_north_m_s * (stamp_s - t.stamp_s)] for t in self.tracks]).reshape(-1, 2)
+        asg = assign_optimal(pred, en, self.gate_m) if len(pred) and len(en) else None
+        pairs = asg.blob_of_landmark if asg else {}
+        out: list[CrowdTrack | None] = [None] * len(en)
+        kept: list[CrowdTrack] = []
+        for i, t in enumerate(self.tracks):
+            if i in pairs:
+                j = pairs[i]
+                dt = max(stamp_s - t.stamp_s, 1e-3)
+                r = en[j] - pred[i]
+                p = pred[i] + self.alpha * r
+                v = np.array([t.v_east_m_s, t.v_north_m_s]) + (self.beta / dt) * r
+                nt = replace(t, east_m=float(p[0]), north_m=float(p[1]), v_east_m_s=float(v[0]),
+                             v_north_m_s=float(v[1]), stamp_s=stamp_s, hits=t.hits + 1, misses=0)
+                kept.append(nt)
+                out[j] = nt
+            elif t.misses + 1 <= self.max_misses:
+                kept.append(replace(t, misses=t.misses + 1))
+        nid = self.next_id
+        for j in range(len(en)):
+            if out[j] is None:
+                nt = CrowdTrack(nid, float(en[j, 0]), float(en[j, 1]), 0.0, 0.0, stamp_s, 1, 0)
+                nid += 1
+                kept.append(nt)
+                out[j] = nt
+        return replace(self, tracks=tuple(kept), next_id=nid), out  # type: ignore[return-value]
