@@ -139,7 +139,8 @@ class Homography:
     @property
     def H_px_from_ground(self) -> np.ndarray:
         H = np.linalg.inv(self.H_ground_from_px)  # 3x3 of a checked, well-conditioned fit
-        return H / H[2, 2]
+        # scale by |H22| only: inv(H) [g; 1] = [p; 1] / w(p), so w > 0 marks points in front of the camera
+        return H / abs(H[2, 2])
 
     def px_to_ground(self, xy_px) -> np.ndarray:
         """(N, 2) pixels -> (N, 2) east/north metres. Points at or beyond the horizon give NaN."""

@@ -1,0 +1,138 @@
+import numpy as np
+import pytest
+
+from uvteam.camera import CameraPose, PinholeCamera, project
+from uvteam.geo import LocalFrame
+from uvteam.homography import FitQuality
+from uvteam.localizer import (FrameObservation, LocalizerConfig, LocalizerState, UgvTrack,
+                              localize_step, ugv_position_at)
+
+FRAME = LocalFrame(31.4850, -111.5440, 1300.0)
+CAM = PinholeCamera(1280, 720, 78.0)
+POSE = CameraPose(0.0, 0.0, 50.0, yaw_deg=15.0)
+UGVS = {"red": (12.0, 0.0), "green": (0.0, 12.0), "blue": (-12.0, 1.0), "yellow": (2.0, -12.0),
+        "magenta": (9.0, 9.0), "cyan": (-8.0, -9.0)}
+CROWD = np.array([[2.0, 3.0]])
+
+
+def track_at(en, t0=0.0, t1=2.0, sigma=0.0, velocity=(0.0, 0.0)):
+    ts = np.arange(t0, t1 + 1e-9, 0.1)
+    pos = np.array(en) + np.outer(ts - t0, velocity)
+    return UgvTrack(ts, pos, np.full(len(ts), sigma))
+
+
+def observation(t, ugvs=UGVS, crowd=CROWD, colour=None):
+    names = list(ugvs)
+    lm_px = project(CAM, POSE, np.array([ugvs[u] for u in names]))
+    crowd_px = project(CAM, POSE, crowd)
+    blobs = np.vstack([lm_px, crowd_px])
+    boxes = np.column_stack([blobs - 15, blobs + 15])
+    colour = names if colour is None else colour
+    return FrameObservation(t, {u: tuple(lm_px[names.index(u)]) for u in colour}, blobs, boxes)
+
+
+def cfg(**kw):
+    return LocalizerConfig(frame=FRAME, **kw)
+
+
+@pytest.mark.parametrize(
+    "ugvs, quality",
+    [
+        ({k: UGVS[k] for k in ["red", "green", "blue", "yellow"]}, FitQuality.EXACT),  # four landmarks
+        (UGVS, FitQuality.LEAST_SQUARES),                                               # six landmarks
+    ],
+)
+def test_crowd_localized_and_ugvs_not_crowds(ugvs, quality):
+    tracks = {u: track_at(p) for u, p in ugvs.items()}
+    _, res = localize_step(LocalizerState(), observation(1.0, ugvs), tracks, cfg())
+    assert res.quality == quality
+    assert len(res.crowds) == 1, "exactly the crowd: no UGV reported as a crowd"
+    c = res.crowds[0]
+    assert np.hypot(c.east_m - CROWD[0, 0], c.north_m - CROWD[0, 1]) < 1e-6
+    e, n = FRAME.wgs84_to_ground(c.lat_deg, c.lon_deg)
+    assert abs(e - CROWD[0, 0]) < 1e-3 and abs(n - CROWD[0, 1]) < 1e-3
+    assert c.footprint_latlon_deg.shape == (4, 2) and np.isfinite(c.footprint_latlon_deg).all()
+    assert c.quality == quality and c.radius95_m > 0
+
+
+def test_robust_names_bad_gnss_landmark():
+    tracks = {u: track_at(p) for u, p in UGVS.items()}
+    tracks["magenta"] = track_at((UGVS["magenta"][0] + 9.0, UGVS["magenta"][1]))  # a wrong fix
+    _, res = localize_step(LocalizerState(), observation(1.0), tracks, cfg())
+    assert res.quality == FitQuality.ROBUST and res.outlier_landmarks == ("magenta",)
+    assert np.hypot(res.crowds[0].east_m - 2.0, res.crowds[0].north_m - 3.0) < 1e-6
+    assert res.crowds[0].n_outliers == 1
+
+
+def test_holds_last_transform_then_fails():
+    four = {k: UGVS[k] for k in ["red", "green", "blue", "yellow"]}
+    tracks = {u: track_at(p, t1=10.0) for u, p in four.items()}
+    c = cfg(hold_max_s=1.0)
+    st, res = localize_step(LocalizerState(), observation(1.0, four), tracks, c)
+    assert res.quality == FitQuality.EXACT
+    del tracks["yellow"]  # its fixes stopped long ago, no plan
+    st, held = localize_step(st, observation(1.5, four), tracks, c)
+    assert held.quality == FitQuality.HELD and held.fit_age_s == pytest.approx(0.5)
+    assert held.crowds and all(cr.quality == FitQuality.HELD for cr in held.crowds)
+    assert held.crowds[0].radius95_m > res.crowds[0].radius95_m  # held estimates say they are worse
+    st, failed = localize_step(st, observation(2.6, four), tracks, c)
+    assert failed.quality == FitQuality.FAILED and failed.crowds == () and "too_few" in failed.failure
+
+
+@pytest.mark.parametrize(
+    "t, source, expect_en",
+    [
+        (1.05, "fix", (1.05, 0.0)),            # interpolated between two fixes
+        (2.2, "extrapolated", (2.2, 0.0)),     # 0.2 s past the newest fix, at its velocity
+        (2.8, "plan", (2.8, 0.0)),             # fixes late: the plan covers one interval
+        (3.5, None, None),                     # beyond one interval after the newest fix: dropped
+    ],
+)
+def test_ugv_position_sources(t, source, expect_en):
+    tr = track_at((0.0, 0.0), 0.0, 2.0, velocity=(1.0, 0.0))
+    plan_t = np.array([2.0, 3.0, 4.0])
+    tr = UgvTrack(tr.fix_stamp_s, tr.fix_en_m, tr.fix_sigma_m, plan_t, np.column_stack([plan_t, 0 * plan_t]))
+    got = ugv_position_at(tr, t, cfg(tracking_interval_s=1.0))
+    if source is None:
+        assert got is None
+    else:
+        en, sigma, src = got
+        assert src == source and np.allclose(en, expect_en, atol=1e-9)
+
+
+def test_continuity_keeps_pairing_when_colour_flickers():
+    tracks = {u: track_at(p) for u, p in UGVS.items()}
+    c = cfg(tracking_interval_s=1.0)
+    st, res = localize_step(LocalizerState(), observation(1.0), tracks, c)
+    assert set(res.blob_of_ugv) == set(UGVS)
+    # inside the interval, two colours are missed; the motion blobs keep their UGVs
+    st, res2 = localize_step(st, observation(1.1, colour=["red", "green", "blue", "yellow"]), tracks, c)
+    assert set(res2.blob_of_ugv) == set(UGVS) and len(res2.crowds) == 1
+    assert res2.quality == FitQuality.LEAST_SQUARES
+
+
+def test_ugv_without_colour_or_pairing_is_not_a_crowd():
+    # at the start of an interval a UGV's colour is missed: its projected position gates its blob
+    tracks = {u: track_at(p) for u, p in UGVS.items()}
+    _, res = localize_step(LocalizerState(), observation(1.0, colour=["red", "green", "blue", "yellow", "magenta"]),
+                           tracks, cfg())
+    assert len(res.crowds) == 1
+    assert np.hypot(res.crowds[0].east_m - 2.0, res.crowds[0].north_m - 3.0) < 1e-6
+
+
+def test_degenerate_landmarks_fail_cleanly():
+    line = {"red": (0.0, 0.0), "green": (5.0, 5.0), "blue": (10.0, 10.0), "yellow": (15.0, 15.0)}
+    tracks = {u: track_at(p) for u, p in line.items()}
+    _, res = localize_step(LocalizerState(), observation(1.0, line, crowd=np.array([[20.0, 0.0]])), tracks, cfg())
+    assert res.quality == FitQuality.FAILED and "collinear" in res.failure and res.crowds == ()
+
+
+def test_empty_frame():
+    _, res = localize_step(LocalizerState(), FrameObservation(0.0, {}, np.empty((0, 2)), np.empty((0, 4))), {}, cfg())
+    assert res.quality == FitQuality.FAILED and res.crowds == ()
+
+
+@pytest.mark.parametrize("kw", [{"gate_px": 0.0}, {"image_coordinates": "both"}, {"solver": "magic"}])
+def test_bad_config(kw):
+    with pytest.raises(ValueError):
+        cfg(**kw)
