@@ -9,7 +9,7 @@ within 5 km (tests/unit/test_geo.py). This replaces the paper's fixed 111 320 m 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -58,23 +58,20 @@ class LocalFrame:
     origin_lat_deg: float
     origin_lon_deg: float
     origin_h_m: float = 0.0
+    _rot: np.ndarray = field(init=False, repr=False, compare=False)          # rows: E, N, U in ECEF
+    _origin_ecef: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.origin_lat_deg) and -90.0 <= self.origin_lat_deg <= 90.0):
             raise ValueError(f"origin_lat_deg must be in [-90, 90], got {self.origin_lat_deg}")
         if not (np.isfinite(self.origin_lon_deg) and -180.0 <= self.origin_lon_deg <= 180.0):
             raise ValueError(f"origin_lon_deg must be in [-180, 180], got {self.origin_lon_deg}")
-
-    @property
-    def _rot(self) -> np.ndarray:
         lat, lon = np.radians(self.origin_lat_deg), np.radians(self.origin_lon_deg)
         sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
-        # rows: east, north, up expressed in ECEF
-        return np.array([[-so, co, 0.0], [-sl * co, -sl * so, cl], [cl * co, cl * so, sl]])
-
-    @property
-    def _origin_ecef(self) -> np.ndarray:
-        return np.array(geodetic_to_ecef(self.origin_lat_deg, self.origin_lon_deg, self.origin_h_m))
+        rot = np.array([[-so, co, 0.0], [-sl * co, -sl * so, cl], [cl * co, cl * so, sl]])
+        object.__setattr__(self, "_rot", rot)
+        object.__setattr__(self, "_origin_ecef", np.array(
+            geodetic_to_ecef(self.origin_lat_deg, self.origin_lon_deg, self.origin_h_m)))
 
     def wgs84_to_enu(self, lat_deg, lon_deg, h_m=None):
         """WGS84 -> (east_m, north_m, up_m) in this frame. ``h_m`` defaults to the origin's height."""

@@ -93,15 +93,18 @@ def _check(xy_px: np.ndarray, en_m: np.ndarray, min_sep_px: float, min_sep_m: fl
         return FitFailure(FailureReason.TOO_FEW, f"need at least 4 landmarks, got {n}")
     if not (np.isfinite(xy_px).all() and np.isfinite(en_m).all()):
         return FitFailure(FailureReason.NON_FINITE, "a landmark coordinate is NaN or infinite")
+    iu = np.triu_indices(n, 1)
     for pts, tol, what in ((xy_px, min_sep_px, "image"), (en_m, min_sep_m, "ground")):
-        d = np.sqrt(((pts[:, None, :] - pts[None, :, :]) ** 2).sum(-1))
-        i, j = np.nonzero(np.triu(d <= tol, 1))
-        if len(i):
+        diff = pts[iu[0]] - pts[iu[1]]
+        d2 = diff[:, 0] * diff[:, 0] + diff[:, 1] * diff[:, 1]
+        k = int(d2.argmin())
+        if d2[k] <= tol * tol:
             return FitFailure(FailureReason.DUPLICATE,
-                              f"landmarks {i[0]} and {j[0]} coincide in the {what} ({d[i[0], j[0]]:.3g} apart)")
+                              f"landmarks {iu[0][k]} and {iu[1][k]} coincide in the {what} ({sqrt(d2[k]):.3g} apart)")
     for pts, what in ((xy_px, "image"), (en_m, "ground")):
         c = pts - pts.mean(axis=0)
-        sxx, syy, sxy = (c[:, 0] ** 2).sum(), (c[:, 1] ** 2).sum(), (c[:, 0] * c[:, 1]).sum()
+        S = c.T @ c
+        sxx, syy, sxy = S[0, 0], S[1, 1], S[0, 1]
         tr, disc = 0.5 * (sxx + syy), sqrt(max((0.5 * (sxx - syy)) ** 2 + sxy * sxy, 0.0))
         if tr - disc <= (_COLLINEAR_TOL ** 2) * (tr + disc):  # singular values squared
             return FitFailure(FailureReason.COLLINEAR, f"landmarks are collinear in the {what}")
@@ -120,9 +123,11 @@ class Homography:
     """ground = H_ground_from_px (image). Carries what the fit needs for uncertainty propagation."""
 
     H_ground_from_px: np.ndarray           # (3, 3), H[2, 2] = 1
+    H_px_from_ground: np.ndarray           # its inverse scaled by |H22|: w > 0 in front of the camera
     quality: FitQuality
     inliers: np.ndarray                    # (n,) bool over the landmarks given to the fit
     rms_residual_m: float                  # ground-plane RMS residual over inliers (0 for exact fits)
+    residual_m: np.ndarray                 # (n,) ground distance of every landmark from its mapped pixel
     # Normalised-space quantities for covariance propagation (first order).
     _h_n: np.ndarray = field(repr=False)          # (8,)
     _A_pinv: np.ndarray = field(repr=False)       # (8, 2m)
@@ -136,12 +141,6 @@ class Homography:
     def outliers(self) -> np.ndarray:
         return np.flatnonzero(~self.inliers)
 
-    @property
-    def H_px_from_ground(self) -> np.ndarray:
-        H = np.linalg.inv(self.H_ground_from_px)  # 3x3 of a checked, well-conditioned fit
-        # scale by |H22| only: inv(H) [g; 1] = [p; 1] / w(p), so w > 0 marks points in front of the camera
-        return H / abs(H[2, 2])
-
     def px_to_ground(self, xy_px) -> np.ndarray:
         """(N, 2) pixels -> (N, 2) east/north metres. Points at or beyond the horizon give NaN."""
         return _apply(self.H_ground_from_px, xy_px)
@@ -154,7 +153,8 @@ class Homography:
         return self.px_to_ground(poly_px)
 
     def with_quality(self, quality: FitQuality) -> "Homography":
-        return Homography(self.H_ground_from_px, quality, self.inliers, self.rms_residual_m, self._h_n,
+        return Homography(self.H_ground_from_px, self.H_px_from_ground, quality, self.inliers, self.rms_residual_m,
+                          self.residual_m, self._h_n,
                           self._A_pinv, self._dr_dz, self._Tp, self._sp, self._sg, self._Tg_inv)
 
     def map_points_with_cov(self, xy_px, sigma_target_px: float, sigma_landmark_px,
@@ -247,10 +247,14 @@ def fit_homography(xy_px, en_m, *, min_sep_px: float = 0.5, min_sep_m: float = 0
     c = np.arange(m) * 4
     dr[r0, c], dr[r0, c + 1], dr[r0, c + 2] = h[0] - X * h[6], h[1] - X * h[7], -w
     dr[r1, c], dr[r1, c + 1], dr[r1, c + 3] = h[3] - Y * h[6], h[4] - Y * h[7], -w
-    resid = _apply(H, p) - g
-    rms = float(np.sqrt((resid ** 2).sum(1).mean()))
+    resid = _apply(H, p_all) - g_all
+    res_m = np.sqrt(resid[:, 0] ** 2 + resid[:, 1] ** 2)
+    rms = float(np.sqrt((res_m[mask] ** 2).mean()))
     q = quality or (FitQuality.EXACT if m == 4 else FitQuality.LEAST_SQUARES)
-    return Homography(H, q, mask.copy(), rms if m > 4 else 0.0, h, A_pinv, dr, Tp, sp, sg, Tg_inv)
+    # inverse scaled by |H22| only: inv(H) [g; 1] = [p; 1] / w(p), so w > 0 marks points in front
+    Hinv = np.linalg.inv(H)
+    Hinv /= abs(Hinv[2, 2])
+    return Homography(H, Hinv, q, mask.copy(), rms if m > 4 else 0.0, res_m, h, A_pinv, dr, Tp, sp, sg, Tg_inv)
 
 
 def fit_homography_robust(xy_px, en_m, *, threshold_m: float, min_sep_px: float = 0.5,
@@ -267,9 +271,12 @@ def fit_homography_robust(xy_px, en_m, *, threshold_m: float, min_sep_px: float 
     n = len(p)
     if n <= 4:
         return fit_homography(p, g, min_sep_px=min_sep_px, min_sep_m=min_sep_m)
-    bad = _check(p, g, min_sep_px, min_sep_m)
-    if bad is not None:
-        return bad
+    full = fit_homography(p, g, min_sep_px=min_sep_px, min_sep_m=min_sep_m)
+    if not full:
+        return full
+    # common case first: every landmark agrees with the fit of all of them
+    if full.residual_m.max() <= threshold_m:
+        return full
     best: np.ndarray | None = None
     best_err = np.inf
     if n <= 10:
@@ -279,7 +286,7 @@ def fit_homography_robust(xy_px, en_m, *, threshold_m: float, min_sep_px: float 
             hyp = fit_homography(p, g, inliers=sel, min_sep_px=min_sep_px, min_sep_m=min_sep_m)
             if not hyp:
                 continue
-            err = np.sqrt(((hyp.px_to_ground(p) - g) ** 2).sum(1))
+            err = hyp.residual_m
             inl = err <= threshold_m
             score = float(np.where(inl, err, threshold_m).sum())
             if best is None or inl.sum() > best.sum() or (inl.sum() == best.sum() and score < best_err):
@@ -292,7 +299,7 @@ def fit_homography_robust(xy_px, en_m, *, threshold_m: float, min_sep_px: float 
         if cv_mask is not None:
             best = cv_mask.ravel().astype(bool)
     if best is None or best.sum() < 4:
-        return fit_homography(p, g, min_sep_px=min_sep_px, min_sep_m=min_sep_m)
+        return full
     fit = fit_homography(p, g, inliers=best, min_sep_px=min_sep_px, min_sep_m=min_sep_m)
     if fit and (~best).any():
         return fit.with_quality(FitQuality.ROBUST)
@@ -336,6 +343,5 @@ def radius95_m(cov_m2) -> np.ndarray:
     a, b, d = cov[..., 0, 0], 0.5 * (cov[..., 0, 1] + cov[..., 1, 0]), cov[..., 1, 1]
     tr, disc = 0.5 * (a + d), np.sqrt(np.maximum((0.5 * (a - d)) ** 2 + b * b, 0.0))
     lmax, lmin = tr + disc, np.maximum(tr - disc, 0.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        k = np.where(lmax > 0, np.sqrt(lmin / lmax), 1.0)
+    k = np.sqrt(np.divide(lmin, lmax, out=np.ones_like(lmax), where=lmax > 0))
     return np.sqrt(lmax) * np.interp(k, _K_GRID, _R95_GRID)

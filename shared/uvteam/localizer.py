@@ -129,7 +129,14 @@ class StepResult:
 
 
 def _interp_path(stamps: np.ndarray, en: np.ndarray, t: float) -> np.ndarray:
-    return np.array([np.interp(t, stamps, en[:, 0]), np.interp(t, stamps, en[:, 1])])
+    i = int(np.searchsorted(stamps, t))
+    if i <= 0:
+        return en[0].copy()
+    if i >= len(stamps):
+        return en[-1].copy()
+    t0, t1 = stamps[i - 1], stamps[i]
+    a = (t - t0) / (t1 - t0) if t1 > t0 else 1.0
+    return en[i - 1] + a * (en[i] - en[i - 1])
 
 
 def ugv_position_at(track: UgvTrack, t_s: float, cfg: LocalizerConfig) -> tuple[np.ndarray, float, str] | None:
@@ -244,14 +251,16 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: dict[str
             en, cov = fit.map_points_with_cov(blobs[targets], cfg.sigma_target_px, cfg.sigma_landmark_px, sig_m)
             r95 = radius95_m(cov) + (cfg.held_growth_m_s * age if quality == FitQuality.HELD else 0.0)
             corners = boxes[targets][:, [0, 1, 2, 1, 2, 3, 0, 3]].reshape(-1, 2)
-            fp = fit.px_to_ground(corners)
-            lat, lon = cfg.frame.ground_to_wgs84(en[:, 0], en[:, 1])
-            flat, flon = cfg.frame.ground_to_wgs84(fp[:, 0], fp[:, 1])
-            fp_ll = np.stack([flat, flon], -1).reshape(-1, 4, 2)
+            pts = np.vstack([en, fit.px_to_ground(corners)])  # centres, then 4 corners each
+            lat_all, lon_all = cfg.frame.ground_to_wgs84(pts[:, 0], pts[:, 1])
+            nt = len(targets)
+            lat, lon = lat_all[:nt], lon_all[:nt]
+            fp_ll = np.stack([lat_all[nt:], lon_all[nt:]], -1).reshape(-1, 4, 2)
             n_out = int((~fit.inliers).sum())
-            for k, j in enumerate(targets):
-                if not (np.isfinite(en[k]).all() and np.isfinite(r95[k]) and np.isfinite(fp_ll[k]).all()):
-                    continue  # a point beyond the horizon of a bad transform: never a NaN on the map
+            # a point beyond the horizon of a bad transform is dropped: never a NaN on the map
+            finite = np.isfinite(en).all(1) & np.isfinite(r95) & np.isfinite(fp_ll).all((1, 2))
+            for k in np.flatnonzero(finite).tolist():
+                j = targets[k]
                 crowds.append(CrowdEstimate(j, float(en[k, 0]), float(en[k, 1]), float(lat[k]), float(lon[k]),
                                             fp_ll[k], float(r95[k]), quality, n_out))
 

@@ -1,0 +1,43 @@
+"""The one console script: `uvteam <command> [args]`.
+
+Commands are registered by the service packages under the entry-point group ``uvteam.commands``
+(pyproject.toml), so this core module never imports a service.
+"""
+
+from __future__ import annotations
+
+import sys
+from importlib.metadata import entry_points
+
+__all__ = ["main", "commands"]
+
+_HELP = {
+    "demo": "run the whole team on loopback with the simulator and a live view",
+    "sim": "the simulator: plays each vehicle's autopilot and the UAV camera",
+    "uav": "the UAV service: camera -> detections, autopilot -> fix",
+    "ugv": "a UGV service: autopilot -> fix + plan, crowds -> planner -> waypoints",
+    "localizer": "the localizer service: detections + fixes + plans -> geolocated crowds",
+    "tap": "print any uvteam key as JSON lines, or a live summary table",
+    "router": "a zenoh router for ground stations and multi-host setups",
+    "bench": "benchmarks: localize, vision, latency",
+    "experiment": "run scenario files over their seeds; write tables and plots",
+}
+
+
+def commands() -> dict:
+    return {ep.name: ep for ep in entry_points(group="uvteam.commands")}
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    cmds = commands()
+    if not argv or argv[0] in ("-h", "--help", "help"):
+        print("usage: uvteam <command> [--help] [args]\n\ncommands:")
+        for name in sorted(cmds):
+            print(f"  {name:<11} {_HELP.get(name, '')}")
+        return 0 if argv else 2
+    name, rest = argv[0], argv[1:]
+    if name not in cmds:
+        print(f"uvteam: unknown command {name!r}; try `uvteam --help`", file=sys.stderr)
+        return 2
+    return int(cmds[name].load()(rest) or 0)
