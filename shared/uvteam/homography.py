@@ -201,14 +201,11 @@ class Homography:
 
 
 def _apply(H: np.ndarray, pts) -> np.ndarray:
-    p = np.atleast_2d(np.asarray(pts, float))
-    w = H[2, 0] * p[:, 0] + H[2, 1] * p[:, 1] + H[2, 2]
-    out = np.empty_like(p)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        out[:, 0] = (H[0, 0] * p[:, 0] + H[0, 1] * p[:, 1] + H[0, 2]) / w
-        out[:, 1] = (H[1, 0] * p[:, 0] + H[1, 1] * p[:, 1] + H[1, 2]) / w
-    out[~(w > 1e-12)] = np.nan
-    return out
+    p = np.asarray(pts, float).reshape(-1, 2)
+    q = p @ H[:, :2].T + H[:, 2]                  # (N, 3) homogeneous
+    w = q[:, 2:]
+    ok = w > 1e-12                                # in front of the camera (or of the ground plane)
+    return np.divide(q[:, :2], w, out=np.full((len(p), 2), np.nan), where=ok)
 
 
 def fit_homography(xy_px, en_m, *, min_sep_px: float = 0.5, min_sep_m: float = 0.05,

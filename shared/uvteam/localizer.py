@@ -41,6 +41,7 @@ class UgvTrack:
     fix_sigma_m: np.ndarray        # (k,) 1-sigma horizontal accuracy per axis
     plan_stamp_s: np.ndarray = field(default_factory=lambda: np.empty(0))   # (w,) planned times
     plan_en_m: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))  # (w, 2)
+    fix_v_en_m_s: np.ndarray | None = None  # (k, 2) reported (Doppler) velocity, when the receiver gives it
 
     @staticmethod
     def from_wgs84(frame: LocalFrame, fix_stamp_s, fix_lat_deg, fix_lon_deg, fix_sigma_m,
@@ -78,6 +79,8 @@ class LocalizerConfig:
     sigma_landmark_px: float = 1.0
     sigma_target_px: float = 2.0
     min_sigma_m: float = 0.02               # floor on a fix's sigma (a reported 0 is not perfection)
+    velocity_sigma_m_s: float = 0.1         # 1-sigma of a reported UGV velocity
+    max_ugv_speed_m_s: float = 6.0          # bounds the drift of a UGV whose velocity is unknown
 
     def __post_init__(self) -> None:
         if self.image_coordinates not in ("motion", "color"):
@@ -150,11 +153,17 @@ def ugv_position_at(track: UgvTrack, t_s: float, cfg: LocalizerConfig) -> tuple[
             sig = float(max(track.fix_sigma_m[min(i, len(fs) - 1)], track.fix_sigma_m[j]))
             return _interp_path(fs, track.fix_en_m, t_s), max(sig, cfg.min_sigma_m), "fix"
         if 0.0 < t_s - last <= cfg.fix_extrapolate_s:
-            p = track.fix_en_m[-1].copy()
+            # Extrapolate with the receiver's own velocity. Differencing two noisy fixes would amplify
+            # their noise (1 m noise, 0.2 s apart: 7 m/s), so without a velocity the fix is held and
+            # its sigma grows by the distance an unseen UGV could cover.
+            dt = t_s - last
             sig = float(track.fix_sigma_m[-1])
-            if len(fs) >= 2 and 0.0 < last - fs[-2] <= 2.0:
-                v = (track.fix_en_m[-1] - track.fix_en_m[-2]) / (last - fs[-2])
-                p = p + v * (t_s - last)
+            if track.fix_v_en_m_s is not None:
+                p = track.fix_en_m[-1] + track.fix_v_en_m_s[-1] * dt
+                sig = float(np.hypot(sig, cfg.velocity_sigma_m_s * dt))
+            else:
+                p = track.fix_en_m[-1].copy()
+                sig = float(np.hypot(sig, cfg.max_ugv_speed_m_s * dt / 2.0))
             return p, max(sig, cfg.min_sigma_m), "extrapolated"
         age = t_s - last
     else:

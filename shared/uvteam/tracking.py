@@ -30,7 +30,7 @@ class CrowdTrack:
 
 @dataclass(frozen=True, slots=True)
 class CrowdTracker:
-    gate_m: float = 10.0
+    gate_m: float = 4.0                 # a crowd moves < 0.5 m between frames; a jump is a new track
     alpha: float = 0.6
     beta: float = 0.2
     max_misses: int = 10

@@ -80,24 +80,29 @@ def test_holds_last_transform_then_fails():
 
 
 @pytest.mark.parametrize(
-    "t, source, expect_en",
+    "t, with_velocity, source, expect_en",
     [
-        (1.05, "fix", (1.05, 0.0)),            # interpolated between two fixes
-        (2.2, "extrapolated", (2.2, 0.0)),     # 0.2 s past the newest fix, at its velocity
-        (2.8, "plan", (2.8, 0.0)),             # fixes late: the plan covers one interval
-        (3.5, None, None),                     # beyond one interval after the newest fix: dropped
+        (1.05, True, "fix", (1.05, 0.0)),            # interpolated between two fixes
+        (2.2, True, "extrapolated", (2.2, 0.0)),     # 0.2 s past the newest fix, at its reported velocity
+        (2.2, False, "extrapolated", (2.0, 0.0)),    # no velocity: held, with a grown sigma
+        (2.8, True, "plan", (2.8, 0.0)),             # fixes late: the plan covers one interval
+        (3.5, True, None, None),                     # beyond one interval after the newest fix: dropped
     ],
 )
-def test_ugv_position_sources(t, source, expect_en):
+def test_ugv_position_sources(t, with_velocity, source, expect_en):
     tr = track_at((0.0, 0.0), 0.0, 2.0, velocity=(1.0, 0.0))
     plan_t = np.array([2.0, 3.0, 4.0])
-    tr = UgvTrack(tr.fix_stamp_s, tr.fix_en_m, tr.fix_sigma_m, plan_t, np.column_stack([plan_t, 0 * plan_t]))
-    got = ugv_position_at(tr, t, cfg(tracking_interval_s=1.0))
+    vel = np.tile([1.0, 0.0], (len(tr.fix_stamp_s), 1)) if with_velocity else None
+    tr = UgvTrack(tr.fix_stamp_s, tr.fix_en_m, tr.fix_sigma_m, plan_t, np.column_stack([plan_t, 0 * plan_t]), vel)
+    c = cfg(tracking_interval_s=1.0)
+    got = ugv_position_at(tr, t, c)
     if source is None:
         assert got is None
     else:
         en, sigma, src = got
         assert src == source and np.allclose(en, expect_en, atol=1e-9)
+        if source == "extrapolated" and not with_velocity:
+            assert sigma >= c.max_ugv_speed_m_s * 0.2 / 2 - 1e-9
 
 
 def test_continuity_keeps_pairing_when_colour_flickers():

@@ -1,0 +1,257 @@
+"""`uvteam experiment`: run scenario files over their seeds in-process and score them.
+
+The same core code as the deployed services (planner, localizer step, crowd tracker) runs in
+simulated time against :class:`SimWorld`; only the bus and the MAVLink links are left out. Scoring
+follows ../shared/scenarios/README.md: per frame with a crowd present and reported, the ground
+distance between the reported position and the true centroid; reports matched to true crowds by
+Hungarian assignment with a 10 m gate; unmatched reports are false crowds, unmatched true crowds
+misses; mingling crowds scored as one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from uvteam.homography import FitQuality
+from uvteam.localizer import FrameObservation, LocalizerConfig, LocalizerState, UgvTrack, localize_step
+from uvteam.planning import plan_stations
+from uvteam.tracking import CrowdTracker
+
+from .scenario import Scenario, load_scenario
+from .world import SimWorld
+
+__all__ = ["RunResult", "run_scenario_seed", "summarize", "main", "TEAM_DEFAULTS"]
+
+TRACKING_INTERVAL_S = 1.0
+CONFIRM_HITS = 3            # a crowd is published once its track has been seen this many times
+SCORE_GATE_M = 10.0
+T0 = 1_700_000_000.0        # simulated UNIX epoch of every run's start
+TEAM_DEFAULTS = {"gate_px": 25.0}
+
+
+@dataclass
+class RunResult:
+    scenario: str
+    seed: int
+    times_s: list = field(default_factory=list)     # per matched (frame, crowd)
+    errors_m: list = field(default_factory=list)
+    radius95_m: list = field(default_factory=list)
+    quality: list = field(default_factory=list)
+    truth_frames: int = 0                            # (frame, true crowd) pairs after the first second
+    detected_frames: int = 0
+    false_crowds: int = 0
+    ugv_as_crowd: int = 0
+    frames: int = 0
+
+
+def _ugv_ids(sc: Scenario) -> list[str]:
+    return [f"ugv{i + 1}" for i in range(sc.ugvs.count)]
+
+
+def localizer_config(sc: Scenario, frame, image_coordinates: str | None = None) -> LocalizerConfig:
+    from .world import SENSOR_NOISE_PX  # noqa: PLC0415
+
+    return LocalizerConfig(
+        frame=frame, gate_px=TEAM_DEFAULTS["gate_px"], tracking_interval_s=TRACKING_INTERVAL_S,
+        image_coordinates=image_coordinates or sc.landmarks.image_coordinates,
+        sigma_landmark_px=SENSOR_NOISE_PX["ugv_blob"], sigma_target_px=SENSOR_NOISE_PX["crowd_blob"],
+        fix_extrapolate_s=max(0.3, 1.5 / sc.gnss.fix_rate_hz + sc.gnss.latency_s))
+
+
+def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinates: str | None = None) -> RunResult:
+    """One seed of one scenario. ``detector(world, pose, stamp_s) -> SensorFrame`` (default: the
+    sensor model) lets the vision pipeline replace the sensor model."""
+    world = SimWorld(sc, seed)
+    cfg = localizer_config(sc, world.frame, image_coordinates)
+    ids = _ugv_ids(sc)
+    colour_to_id = dict(zip(sc.ugvs.colors, ids))
+    lost_at = {int(i): float(t) for i, t in sc.events.lose_ugv}
+    fixes = {u: deque(maxlen=64) for u in ids}
+    plans: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    pending: list[tuple[float, int, float, np.ndarray, float]] = []
+    state, tracker = LocalizerState(), CrowdTracker()
+    res = RunResult(sc.name, seed)
+    dt_frame = 1.0 / sc.run.frame_rate_hz
+    dt_fix = 1.0 / sc.gnss.fix_rate_hz
+    n_frames = int(round(sc.run.duration_s * sc.run.frame_rate_hz))
+    substeps = 4
+    next_fix = 0.0
+    next_plan = 0.0
+    crowd_est: tuple[np.ndarray, np.ndarray] | None = None
+    fw, fh = world.camera.footprint_m(sc.uav.altitude_agl_m)
+    sense = detector or (lambda w, pose, stamp: w.sense(pose, stamp))
+    for f in range(n_frames + 1):
+        t = f * dt_frame
+        alive = [i for i in range(len(ids)) if t < lost_at.get(i, math.inf)]
+        # GNSS fixes (captured now, delivered latency_s later)
+        while next_fix <= t + 1e-9:
+            for i in alive:
+                if not world.in_dropout(i, next_fix):
+                    h_acc = math.sqrt(sc.gnss.sigma_m ** 2 + sc.gnss.bias_walk_m_per_sqrt_s ** 2 * min(next_fix, 60.0))
+                    pending.append((next_fix + sc.gnss.latency_s, i, next_fix,
+                                    (world.ugv_fix_en(i), world.ugv_fix_v(i)), h_acc))
+            next_fix += dt_fix
+        keep = []
+        for rel, i, cap, en, h_acc in pending:
+            if rel <= t + 1e-9:
+                fixes[ids[i]].append((T0 + cap, en[0], h_acc, en[1]))
+            else:
+                keep.append((rel, i, cap, en, h_acc))
+        pending = keep
+        # UGV planners, once per tracking interval, from what they know (fixes and published crowds)
+        if t >= next_plan - 1e-9:
+            known = {ids[i]: fixes[ids[i]][-1][1] for i in alive if fixes[ids[i]]}
+            if known:
+                centre, vel = crowd_est if crowd_est is not None else (np.mean(list(known.values()), 0), np.zeros(2))
+                sp = plan_stations(centre, vel, known, T0 + t, radius_m=sc.ugvs.station_radius_m,
+                                   view_half_m=(fw / 2, fh / 2), horizon_s=3 * TRACKING_INTERVAL_S,
+                                   step_s=TRACKING_INTERVAL_S, max_speed_m_s=sc.ugvs.approach_speed_m_s)
+                for u, p in sp.items():
+                    i = ids.index(u)
+                    world.set_mission(i, [(float(e), float(n), float(s)) for (e, n), s in zip(p.en_m, p.speed_m_s)])
+                    plans[u] = (p.stamp_s, p.en_m)
+            next_plan += TRACKING_INTERVAL_S
+        # the UAV frame
+        pose = world.camera_pose()
+        sf = sense(world, pose, T0 + t)
+        obs = FrameObservation(T0 + t, {colour_to_id[c]: xy for c, xy in sf.landmarks.items()},
+                               sf.blob_xy_px, sf.blob_xyxy_px)
+        tracks = {}
+        for u in ids:
+            if not fixes[u]:
+                continue
+            st = np.array([x[0] for x in fixes[u]])
+            en = np.array([x[1] for x in fixes[u]])
+            sg = np.array([x[2] for x in fixes[u]])
+            vel = np.array([x[3] for x in fixes[u]])
+            ps, pe = plans.get(u, (np.empty(0), np.empty((0, 2))))
+            if ids.index(u) in lost_at and t >= lost_at[ids.index(u)]:
+                ps, pe = np.empty(0), np.empty((0, 2))  # its service is gone: no new plans either
+            tracks[u] = UgvTrack(st, en, sg, ps, pe, vel)
+        state, out = localize_step(state, obs, tracks, cfg)
+        en_now = np.array([[c.east_m, c.north_m] for c in out.crowds]).reshape(-1, 2)
+        tracker, trk = tracker.update(en_now, T0 + t)
+        confirmed = [(c, tr) for c, tr in zip(out.crowds, trk) if tr.hits >= CONFIRM_HITS]
+        if confirmed:
+            best = min(confirmed, key=lambda ct: ct[1].track_id)
+            crowd_est = (np.array([best[0].east_m, best[0].north_m]),
+                         np.array([best[1].v_east_m_s, best[1].v_north_m_s]))
+        # scoring
+        truth = world.truth_crowds()
+        res.frames += 1
+        rep = np.array([[c.east_m, c.north_m] for c, _ in confirmed]).reshape(-1, 2)
+        tru = np.array([c for c, _ in truth]).reshape(-1, 2)
+        matched_rep, matched_tru = set(), set()
+        if len(rep) and len(tru):
+            d = np.sqrt(((rep[:, None] - tru[None]) ** 2).sum(-1))
+            ri, ci = linear_sum_assignment(d)
+            for r_, c_ in zip(ri, ci):
+                if d[r_, c_] <= SCORE_GATE_M:
+                    matched_rep.add(r_)
+                    matched_tru.add(c_)
+                    res.times_s.append(t)
+                    res.errors_m.append(float(d[r_, c_]))
+                    res.radius95_m.append(confirmed[r_][0].radius95_m)
+                    res.quality.append(confirmed[r_][0].quality.value)
+        for r_ in range(len(rep)):
+            if r_ not in matched_rep:
+                res.false_crowds += 1
+                ugv_d = np.sqrt(((world.ugv_p - rep[r_]) ** 2).sum(1)).min()
+                if ugv_d < 2.0:
+                    res.ugv_as_crowd += 1
+        if t >= 1.0:
+            res.truth_frames += len(tru)
+            res.detected_frames += sum(1 for c_ in matched_tru if True)
+        for _ in range(substeps):
+            world.step(dt_frame / substeps)
+    return res
+
+
+def summarize(results: list[RunResult]) -> dict:
+    e = np.concatenate([np.asarray(r.errors_m, float) for r in results]) if results else np.empty(0)
+    r95 = np.concatenate([np.asarray(r.radius95_m, float) for r in results]) if results else np.empty(0)
+    tf = sum(r.truth_frames for r in results)
+    return {
+        "n": int(len(e)),
+        "mean_m": float(e.mean()) if len(e) else math.nan,
+        "median_m": float(np.median(e)) if len(e) else math.nan,
+        "p95_m": float(np.percentile(e, 95)) if len(e) else math.nan,
+        "max_m": float(e.max()) if len(e) else math.nan,
+        "recall": sum(r.detected_frames for r in results) / tf if tf else math.nan,
+        "false_crowds": sum(r.false_crowds for r in results),
+        "ugv_as_crowd": sum(r.ugv_as_crowd for r in results),
+        "coverage95": float(np.mean(e <= r95)) if len(e) else math.nan,
+    }
+
+
+def _progress(done: int, total: int, label: str) -> None:
+    if not sys.stderr.isatty():
+        return
+    w = 30
+    k = int(w * done / max(total, 1))
+    sys.stderr.write(f"\r[{'#' * k}{'.' * (w - k)}] {done}/{total} {label:<40}")
+    sys.stderr.flush()
+    if done == total:
+        sys.stderr.write("\n")
+
+
+def table_markdown(rows: list[tuple[Scenario, str, dict]]) -> str:
+    lines = ["| scenario | variant | frames scored | mean m | median m | p95 m | max m | paper mean m | recall | false crowds | UGV as crowd | in 95% radius |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for sc, variant, s in rows:
+        paper = "-" if math.isnan(sc.paper_mean_error_m) else f"{sc.paper_mean_error_m:.2f}"
+        lines.append(f"| {sc.name} | {variant} | {s['n']} | {s['mean_m']:.3f} | {s['median_m']:.3f} | {s['p95_m']:.3f} | "
+                     f"{s['max_m']:.3f} | {paper} | {s['recall']:.3f} | {s['false_crowds']} | {s['ugv_as_crowd']} | "
+                     f"{s['coverage95']:.3f} |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="uvteam experiment", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("scenarios", nargs="+", help="scenario TOML files, e.g. ../shared/scenarios/*.toml")
+    ap.add_argument("--seeds", type=int, default=None, help="use only the first N seeds of each scenario")
+    ap.add_argument("--detector", choices=["sensor", "pixels"], default="sensor",
+                    help="sensor: the simulator's sensor model; pixels: rendered frames through the vision pipeline")
+    ap.add_argument("--out", default="out/experiment", help="folder for the Markdown table and PNG plots")
+    args = ap.parse_args(argv)
+    detector = None
+    if args.detector == "pixels":
+        try:
+            from .pixels import pixel_detector  # noqa: PLC0415
+        except ImportError:
+            print("uvteam experiment: the pixel pipeline is not available in this build", file=sys.stderr)
+            return 2
+        detector = pixel_detector()
+    scenarios = [load_scenario(p) for p in args.scenarios]
+    jobs = [(sc, s) for sc in scenarios for s in (sc.run.seeds[: args.seeds] if args.seeds else sc.run.seeds)]
+    per: dict[str, list[RunResult]] = {}
+    t0 = time.perf_counter()
+    for k, (sc, seed) in enumerate(jobs):
+        _progress(k, len(jobs), f"{sc.name} seed {seed}")
+        per.setdefault(sc.name, []).append(run_scenario_seed(sc, seed, detector=detector))
+    _progress(len(jobs), len(jobs), "done")
+    rows = [(sc, f"{args.detector}, {sc.landmarks.image_coordinates} landmarks", summarize(per[sc.name])) for sc in scenarios]
+    md = table_markdown(rows)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "results.md").write_text(md + "\n")
+    print(md)
+    print(f"\n{len(jobs)} runs in {time.perf_counter() - t0:.1f} s; table in {out / 'results.md'}")
+    try:
+        from .plots import write_plots  # noqa: PLC0415
+    except ImportError:
+        pass
+    else:
+        for path in write_plots(per, scenarios, out):
+            print(f"plot: {path}")
+    return 0

@@ -1,0 +1,234 @@
+"""The agent-based world: crowds, UGVs following their missions, the UAV and its camera. Pure and seeded.
+
+Everything random comes from one ``np.random.Generator`` seeded per run; time is passed in by the
+caller (``step(dt_s)``), so the same world drives the real-time simulator service and the in-process
+experiment alike.
+
+Modelling choices (each a scenario field or stated here):
+- crowd members keep their place in the crowd with a slow personal wander (0.3 m, Ornstein-Uhlenbeck)
+  around offsets drawn with ``spread_m``; a crowd moves at its velocity (or a speed drawn from
+  ``speed_range_m_s`` with the heading kept);
+- a UGV drives towards its current mission waypoint at the leg's commanded speed, limited to
+  ``station_speed_m_s`` while it is on station (within 3 m of its station ring) and to
+  ``approach_speed_m_s`` otherwise (approaching, or catching up after falling behind);
+- the UAV keeps the crowd centroid under the camera with a first-order lag (``follow_time_constant_s``)
+  plus a slow hover wander (``hover_wobble_m``, 3 s correlation); gimbal jitter is fresh every frame;
+- terrain: height = relief/2 * sin(2 pi e / wavelength) * cos(2 pi n / wavelength) above the plane;
+- UGV roof labels and the visible centre of a person both sit 1.0 m above the ground;
+- GNSS: white noise ``sigma_m`` plus a random-walk bias, at ``fix_rate_hz``, ``latency_s`` late,
+  none during ``dropouts``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from uvteam.camera import CameraPose, PinholeCamera, project
+from uvteam.geo import LocalFrame
+
+from .scenario import Scenario
+
+__all__ = ["SimWorld", "SensorFrame", "SENSOR_NOISE_PX"]
+
+ROOF_HEIGHT_M = 1.0
+PERSON_CENTRE_HEIGHT_M = 1.0
+PERSON_RADIUS_M = 0.3
+MEMBER_WANDER_M = 0.3
+WOBBLE_TAU_S = 3.0
+# sensor model (used until pixels are processed): 1-sigma pixel noise of each detection kind
+SENSOR_NOISE_PX = {"colour": 0.5, "ugv_blob": 1.0, "crowd_blob": 1.5}
+MISS_PROB = 0.02
+FALSE_BLOBS_PER_FRAME = 0.05
+MOVING_M_S = 0.2  # frame differencing sees a UGV only when it moves
+GNSS_VEL_SIGMA_M_S = 0.05
+
+
+@dataclass(frozen=True)
+class SensorFrame:
+    stamp_s: float
+    landmarks: dict[str, tuple[float, float]]    # colour -> px
+    blob_xy_px: np.ndarray
+    blob_xyxy_px: np.ndarray
+    blob_kind: tuple[str, ...]                   # "ugv:<colour>" | "crowd:<k>" | "false" (truth, for scoring)
+
+
+class SimWorld:
+    def __init__(self, sc: Scenario, seed: int) -> None:
+        self.sc = sc
+        self.rng = np.random.default_rng(seed)
+        rng = self.rng
+        self.frame = LocalFrame(sc.world.origin_lat_deg, sc.world.origin_lon_deg, sc.world.ground_amsl_m)
+        self.camera = PinholeCamera(sc.camera.width_px, sc.camera.height_px, sc.camera.hfov_deg)
+        self.t = 0.0
+        # crowds
+        self.crowd_c = np.array([[c.start_east_m, c.start_north_m] for c in sc.crowds], float)
+        v = np.array([[c.velocity_east_m_s, c.velocity_north_m_s] for c in sc.crowds], float)
+        for k, c in enumerate(sc.crowds):
+            if len(c.speed_range_m_s) == 2:
+                sp = rng.uniform(*c.speed_range_m_s)
+                v[k] = v[k] / max(np.linalg.norm(v[k]), 1e-9) * sp
+        self.crowd_v = v
+        self.base_off = [rng.normal(0, c.spread_m / np.sqrt(2), (c.members, 2)) for c in sc.crowds]
+        self.wander = [np.zeros((c.members, 2)) for c in sc.crowds]
+        # UGVs around the first crowd
+        n = sc.ugvs.count
+        ang = rng.uniform(0, 2 * np.pi) + 2 * np.pi * np.arange(n) / n + rng.uniform(-0.4, 0.4, n)
+        dist = rng.uniform(*sc.ugvs.initial_distance_m, n)
+        self.ugv_p = self.crowd_c[0] + np.column_stack([dist * np.sin(ang), dist * np.cos(ang)])
+        self.ugv_heading_deg = rng.uniform(0, 360, n)
+        self.ugv_speed = np.zeros(n)
+        self.ugv_v = np.zeros((n, 2))
+        self.ugv_on_station = np.zeros(n, bool)
+        self.missions: list[list[tuple[float, float, float]]] = [[] for _ in range(n)]  # (e, n, speed)
+        self.wp_index = np.zeros(n, int)
+        self.gnss_bias = np.zeros((n, 2))
+        # UAV
+        self.uav_p = self.crowd_centroids()[0].copy()
+        self.wobble = np.zeros(2)
+
+    # --- geometry -----------------------------------------------------------------------------
+    def terrain_up_m(self, en) -> np.ndarray:
+        en = np.atleast_2d(en)
+        a, lam = self.sc.world.terrain_relief_m / 2.0, self.sc.world.terrain_wavelength_m
+        if a == 0:
+            return np.zeros(len(en))
+        return a * np.sin(2 * np.pi * en[:, 0] / lam) * np.cos(2 * np.pi * en[:, 1] / lam)
+
+    def members(self, k: int) -> np.ndarray:
+        return self.crowd_c[k] + self.base_off[k] + self.wander[k]
+
+    def crowd_centroids(self) -> np.ndarray:
+        return np.array([self.members(k).mean(0) for k in range(len(self.sc.crowds))])
+
+    def truth_crowds(self) -> list[tuple[np.ndarray, int]]:
+        """(centroid, members) per scored crowd; crowds whose members mingle (< 2 m) are one."""
+        return [(g.mean(0), len(g)) for g in self._blob_groups()]
+
+    def _blob_groups(self) -> list[np.ndarray]:
+        """Members of each crowd as frame differencing sees them: mingling crowds make one blob."""
+        n = len(self.sc.crowds)
+        mem = [self.members(k) for k in range(n)]
+        group = list(range(n))
+        for i in range(n):
+            for j in range(i + 1, n):
+                if np.sqrt(((mem[i][:, None] - mem[j][None]) ** 2).sum(-1)).min() < 2.0:
+                    gi, gj = group[i], group[j]
+                    group = [gi if g == gj else g for g in group]
+        return [np.vstack([mem[k] for k in range(n) if group[k] == g]) for g in sorted(set(group))]
+
+    # --- dynamics -------------------------------------------------------------------------------
+    def set_mission(self, i: int, waypoints: list[tuple[float, float, float]]) -> None:
+        self.missions[i] = list(waypoints)
+        self.wp_index[i] = 0
+
+    def step(self, dt: float) -> None:
+        rng, sc = self.rng, self.sc
+        self.t += dt
+        self.crowd_c = self.crowd_c + self.crowd_v * dt
+        a = np.exp(-dt / 5.0)
+        for k in range(len(self.wander)):
+            self.wander[k] = a * self.wander[k] + np.sqrt(1 - a * a) * rng.normal(0, MEMBER_WANDER_M, self.wander[k].shape)
+        cents = self.crowd_centroids()
+        for i in range(sc.ugvs.count):
+            d = np.sqrt(((cents - self.ugv_p[i]) ** 2).sum(1)).min()
+            self.ugv_on_station[i] = abs(d - sc.ugvs.station_radius_m) <= 3.0
+            limit = sc.ugvs.station_speed_m_s if self.ugv_on_station[i] else sc.ugvs.approach_speed_m_s
+            mission, w = self.missions[i], self.wp_index[i]
+            p_before = self.ugv_p[i].copy()
+            moved = 0.0
+            budget = dt
+            while w < len(mission) and budget > 1e-9:
+                e, n, sp = mission[w]
+                vec = np.array([e, n]) - self.ugv_p[i]
+                dist = float(np.hypot(*vec))
+                speed = min(max(sp, 0.0), limit)
+                if speed <= 0:
+                    break
+                if dist <= speed * budget:
+                    self.ugv_p[i] = np.array([e, n])
+                    budget -= dist / speed
+                    moved += dist
+                    w += 1
+                else:
+                    self.ugv_p[i] = self.ugv_p[i] + vec / dist * speed * budget
+                    moved += speed * budget
+                    budget = 0.0
+                if dist > 1e-6:
+                    self.ugv_heading_deg[i] = np.degrees(np.arctan2(vec[0], vec[1])) % 360.0
+            self.wp_index[i] = w
+            self.ugv_speed[i] = moved / dt
+            self.ugv_v[i] = (self.ugv_p[i] - p_before) / dt
+        self.gnss_bias += rng.normal(0, sc.gnss.bias_walk_m_per_sqrt_s * np.sqrt(dt), self.gnss_bias.shape)
+        target = cents.mean(0) if sc.uav.follow != "fixed" else self.uav_p
+        if sc.uav.follow == "crowd":
+            self.uav_p = target.copy()
+        elif sc.uav.follow == "crowd-lagged":
+            self.uav_p = self.uav_p + (target - self.uav_p) * (1 - np.exp(-dt / sc.uav.follow_time_constant_s))
+        b = np.exp(-dt / WOBBLE_TAU_S)
+        self.wobble = b * self.wobble + np.sqrt(1 - b * b) * rng.normal(0, sc.uav.hover_wobble_m, 2)
+
+    # --- sensors ----------------------------------------------------------------------------------
+    def ugv_fix_en(self, i: int) -> np.ndarray:
+        return self.ugv_p[i] + self.gnss_bias[i] + self.rng.normal(0, self.sc.gnss.sigma_m, 2)
+
+    def ugv_fix_v(self, i: int) -> np.ndarray:
+        """Doppler velocity as a receiver reports it: 5 cm/s noise."""
+        return self.ugv_v[i] + self.rng.normal(0, GNSS_VEL_SIGMA_M_S, 2)
+
+    def in_dropout(self, i: int, t_s: float) -> bool:
+        return any(int(d[0]) == i and d[1] <= t_s < d[2] for d in self.sc.gnss.dropouts)
+
+    def camera_pose(self) -> CameraPose:
+        j = self.sc.uav.gimbal_jitter_deg
+        roll, pitch = (self.rng.normal(0, j, 2) if j > 0 else (0.0, 0.0))
+        p = self.uav_p + self.wobble
+        ground = float(self.terrain_up_m(self.uav_p)[0])
+        return CameraPose(float(p[0]), float(p[1]), ground + self.sc.uav.altitude_agl_m, 0.0, float(roll), float(pitch))
+
+    def _in_image(self, px: np.ndarray, margin: float = 0.0) -> np.ndarray:
+        w, h = self.camera.width_px, self.camera.height_px
+        return (np.isfinite(px).all(-1) & (px[..., 0] >= margin) & (px[..., 0] < w - margin)
+                & (px[..., 1] >= margin) & (px[..., 1] < h - margin))
+
+    def ugv_label_enu(self) -> np.ndarray:
+        up = self.terrain_up_m(self.ugv_p) + ROOF_HEIGHT_M
+        return np.column_stack([self.ugv_p, up])
+
+    def sense(self, pose: CameraPose, stamp_s: float) -> SensorFrame:
+        """The sensor model: what a detector would report in this frame, with noise, misses, false blobs."""
+        rng, sc, cam = self.rng, self.sc, self.camera
+        lm_px = project(cam, pose, self.ugv_label_enu())
+        landmarks, xy, boxes, kinds = {}, [], [], []
+        half = 0.5 * max(sc.ugvs.length_m, sc.ugvs.width_m) * cam.focal_px / sc.uav.altitude_agl_m
+        for i, colour in enumerate(sc.ugvs.colors):
+            if not self._in_image(lm_px[i]):
+                continue
+            if rng.random() >= MISS_PROB:
+                landmarks[colour] = tuple(lm_px[i] + rng.normal(0, SENSOR_NOISE_PX["colour"], 2))
+            if self.ugv_speed[i] > MOVING_M_S and rng.random() >= MISS_PROB:
+                c = lm_px[i] + rng.normal(0, SENSOR_NOISE_PX["ugv_blob"], 2)
+                xy.append(c)
+                boxes.append([c[0] - half, c[1] - half, c[0] + half, c[1] + half])
+                kinds.append(f"ugv:{colour}")
+        r_px = PERSON_RADIUS_M * cam.focal_px / sc.uav.altitude_agl_m
+        for k, m in enumerate(self._blob_groups()):
+            enu = np.column_stack([m, self.terrain_up_m(m) + PERSON_CENTRE_HEIGHT_M])
+            px = project(cam, pose, enu)
+            vis = self._in_image(px)
+            if vis.sum() < max(2, 0.5 * len(m)) or rng.random() < MISS_PROB:
+                continue
+            p = px[vis]
+            c = p.mean(0) + rng.normal(0, SENSOR_NOISE_PX["crowd_blob"], 2)
+            xy.append(c)
+            boxes.append([p[:, 0].min() - r_px, p[:, 1].min() - r_px, p[:, 0].max() + r_px, p[:, 1].max() + r_px])
+            kinds.append(f"crowd:{k}")
+        for _ in range(rng.poisson(FALSE_BLOBS_PER_FRAME)):
+            c = rng.uniform([0, 0], [cam.width_px, cam.height_px])
+            s = rng.uniform(2, 4) * r_px
+            xy.append(c)
+            boxes.append([c[0] - s, c[1] - s, c[0] + s, c[1] + s])
+            kinds.append("false")
+        return SensorFrame(stamp_s, landmarks, np.array(xy, float).reshape(-1, 2),
+                           np.array(boxes, float).reshape(-1, 4), tuple(kinds))
