@@ -30,7 +30,7 @@ import queue
 import socket
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
@@ -317,6 +317,9 @@ class AutopilotLink:
         elif t == "GPS_RAW_INT":
             h = getattr(m, "h_acc", 0)  # mm, MAVLink 2 extension; 0 = unknown
             self._h_acc = h / 1000.0 if h and h < 1_000_000 else None
+            with self._lock:  # autopilots send it before or after the position: apply it either way
+                if self._state is not None and self._h_acc is not None:
+                    self._state = replace(self._state, h_acc_m=self._h_acc)
         elif t == "ATTITUDE":
             vals = (math.degrees(m.roll), math.degrees(m.pitch), math.degrees(m.yaw))
             if all(math.isfinite(v) and abs(v) <= 360.0 for v in vals):
