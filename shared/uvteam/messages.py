@@ -186,7 +186,8 @@ class Status:
     link: str                       # autopilot link state: "up", "down", "none"
     rejected: int                   # bad messages dropped since start
     published: int
-    note: str = ""
+    received: int = 0               # good messages received since start
+    note: str = ""                  # free text, e.g. "latency_p50_ms=3.1 latency_p99_ms=9.8"
 
 
 MESSAGE_TYPES = (Fix, Waypoint, Plan, Landmark, Blob, Detections, Person, PeopleSeen, Crowd, Crowds,
@@ -297,7 +298,7 @@ def decode(cls: type[T], raw: bytes) -> T:
     if len(raw) > MAX_PAYLOAD_BYTES:
         raise MessageError(schema, "<payload>", f"payload of {len(raw)} bytes is too large")
     try:
-        wire = msgpack.unpackb(raw, raw=False, strict_map_key=True, max_buffer_size=MAX_PAYLOAD_BYTES)
+        wire = msgpack.unpackb(raw, raw=False, strict_map_key=True)
     except Exception as exc:  # msgpack raises several unrelated types for bad input
         raise MessageError(schema, "<payload>", f"not MessagePack: {exc}") from None
     if not isinstance(wire, dict) or "schema" not in wire or "data" not in wire:
@@ -320,3 +321,9 @@ def as_dict(msg: Any) -> dict:
 
 
 __all__ += ["as_dict"]
+
+
+# which message each topic carries (keys.TOPICS)
+BY_TOPIC = {"fix": Fix, "plan": Plan, "detections": Detections, "sensor": Detections, "people": PeopleSeen,
+            "crowds": Crowds, "status": Status, "truth": Truth}
+__all__ += ["BY_TOPIC"]

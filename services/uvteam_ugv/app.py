@@ -1,0 +1,153 @@
+"""The UGV service shell: autopilot -> fix + plan on the bus; crowds -> planner -> mission -> autopilot."""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+import time
+
+import numpy as np
+
+from uvteam import keys
+from uvteam.autopilot import AutopilotLink
+from uvteam.bus import ZenohBus
+from uvteam.config import VehicleConfig, read_signing_key
+from uvteam.errors import LinkError
+from uvteam.geo import LocalFrame
+from uvteam.messages import Crowds, Fix, Plan, Status
+from uvteam.planning import plan_stations
+from uvteam.service import StopFlag
+
+from .mission import mission_to_plan, plan_to_mission
+
+log = logging.getLogger("uvteam.ugv")
+
+
+class UgvService:
+    def __init__(self, cfg: VehicleConfig, bus, link: AutopilotLink) -> None:
+        self.cfg, self.bus, self.link = cfg, bus, link
+        self.frame: LocalFrame | None = None
+        self.team_fix: dict[str, Fix] = {}
+        self.crowd: tuple[np.ndarray, np.ndarray, float] | None = None   # en, v, stamp
+        self.crowds_received = 0
+        self.latency_ms: list[float] = []
+        self._lock = threading.Lock()
+        self._missions: queue.Queue = queue.Queue(maxsize=1)
+        self.last_fix_stamp = 0.0
+        self.published_plans = 0
+
+    # --- bus callbacks (zenoh threads) -------------------------------------------------------------
+    def on_fix(self, key: str, fix: Fix) -> None:
+        with self._lock:
+            self.team_fix[fix.vehicle] = fix
+
+    def on_crowds(self, key: str, msg: Crowds) -> None:
+        now = time.time()
+        with self._lock:
+            self.crowds_received += 1
+            self.latency_ms.append((now - msg.stamp_s) * 1000.0)
+            if len(self.latency_ms) > 100_000:
+                del self.latency_ms[:50_000]
+            if msg.crowds and self.frame is not None:
+                c = min(msg.crowds, key=lambda c: c.crowd_id)
+                e, n = self.frame.wgs84_to_ground(c.lat_deg, c.lon_deg)
+                self.crowd = (np.array([float(e), float(n)]), np.array([c.v_east_m_s, c.v_north_m_s]), msg.stamp_s)
+
+    # --- work ------------------------------------------------------------------------------------
+    def publish_fix(self) -> Fix | None:
+        st = self.link.state()
+        if st is None or st.stamp_s <= self.last_fix_stamp:
+            return None
+        self.last_fix_stamp = st.stamp_s
+        if self.frame is None:
+            self.frame = LocalFrame(st.lat_deg, st.lon_deg, st.alt_amsl_m)
+        fix = Fix(self.cfg.id, st.stamp_s, st.lat_deg, st.lon_deg, st.alt_amsl_m,
+                  (st.heading_deg or 0.0) % 360.0, st.h_acc_m if st.h_acc_m is not None else 5.0,
+                  st.v_east_m_s, st.v_north_m_s)
+        self.bus.publish(keys.key(self.cfg.team, self.cfg.id, "fix"), fix)
+        self.on_fix("", fix)
+        return fix
+
+    def plan(self, now_s: float) -> None:
+        u = self.cfg.ugv
+        if self.frame is None:
+            return
+        with self._lock:
+            fixes = {v: f for v, f in self.team_fix.items() if v in set(u.team_ugvs) | {self.cfg.id}
+                     and now_s - f.stamp_s < 3.0}
+            crowd = self.crowd
+        if self.cfg.id not in fixes:
+            return
+        en = {v: np.array(self.frame.wgs84_to_ground(f.lat_deg, f.lon_deg), float) for v, f in fixes.items()}
+        if crowd is not None and now_s - crowd[2] < 5.0:
+            centre = crowd[0] + crowd[1] * (now_s - crowd[2])
+            vel = crowd[1]
+        else:  # no crowd yet: keep the team together around its centroid
+            centre, vel = np.mean(list(en.values()), 0), np.zeros(2)
+        view = (u.view_half_width_m, u.view_half_height_m) if u.view_half_width_m > 0 else None
+        plans = plan_stations(centre, vel, en, now_s, radius_m=u.station_radius_m, view_half_m=view,
+                              horizon_s=u.horizon_s, step_s=u.tracking_interval_s, max_speed_m_s=u.max_speed_m_s)
+        mine = plans[self.cfg.id]
+        try:
+            self._missions.get_nowait()  # only the newest mission matters
+        except queue.Empty:
+            pass
+        self._missions.put((plan_to_mission(mine, self.frame), en[self.cfg.id]))
+
+    def mission_worker(self, stop: StopFlag) -> None:
+        """Uploads missions and publishes what the autopilot then holds as the plan (own thread:
+        the mission protocol takes round trips and must not delay the fixes)."""
+        while not stop.is_set():
+            try:
+                items, start_en = self._missions.get(timeout=0.2)
+            except queue.Empty:
+                continue
+            try:
+                self.link.upload_mission(items)
+                held = self.link.download_mission()
+            except LinkError as exc:
+                log.warning("mission exchange failed: %s", exc)
+                continue
+            plan = mission_to_plan(self.cfg.id, held, self.frame, start_en, time.time(), self.cfg.ugv.max_speed_m_s)
+            self.bus.publish(keys.key(self.cfg.team, self.cfg.id, "plan"), plan)
+            self.published_plans += 1
+
+    def status(self) -> Status:
+        with self._lock:
+            lat = np.array(self.latency_ms[-2000:]) if self.latency_ms else np.empty(0)
+            n = self.crowds_received
+        note = ""
+        if len(lat):
+            note = (f"crowds_latency_p50_ms={np.percentile(lat, 50):.2f} crowds_latency_p99_ms="
+                    f"{np.percentile(lat, 99):.2f} crowds_received={n}")
+        return Status(self.cfg.id, "ugv", time.time(), self.link.link_state, self.bus.rejected_total,
+                      self.bus.published, n, note)
+
+
+def run(cfg: VehicleConfig, stop: StopFlag) -> int:
+    link = AutopilotLink(cfg.autopilot.url, target_system=cfg.autopilot.system_id,
+                         target_component=cfg.autopilot.component_id, signing_key=read_signing_key(cfg),
+                         link_timeout_s=cfg.autopilot.link_timeout_s)
+    with ZenohBus.open(cfg.bus) as bus, link:
+        bus.declare_alive(keys.alive(cfg.team, cfg.id))
+        svc = UgvService(cfg, bus, link)
+        bus.subscribe(keys.all_vehicles(cfg.team, "fix"), Fix, svc.on_fix)
+        bus.subscribe(keys.key(cfg.team, cfg.ugv.uav, "crowds"), Crowds, svc.on_crowds)
+        worker = threading.Thread(target=svc.mission_worker, args=(stop,), daemon=True)
+        worker.start()
+        log.info("UGV %s up: autopilot %s, following %s's crowds", cfg.id, cfg.autopilot.url, cfg.ugv.uav)
+        next_plan = next_status = 0.0
+        while not stop.wait(0.02):
+            svc.publish_fix()
+            now = time.time()
+            if now >= next_plan:
+                svc.plan(now)
+                next_plan = now + cfg.ugv.tracking_interval_s
+            if now >= next_status:
+                bus.publish(keys.key(cfg.team, cfg.id, "status"), svc.status())
+                next_status = now + 1.0
+        worker.join(timeout=2.0)
+        st = svc.status()
+        log.info("UGV %s stopping: %s", cfg.id, st.note or "no crowds received")
+    return 0

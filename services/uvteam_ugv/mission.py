@@ -1,0 +1,44 @@
+"""Pure: station plans <-> MAVLink missions, and a mission -> the plan (waypoints with times).
+
+A leg's speed travels as MAV_CMD_DO_CHANGE_SPEED (param1 = 1 ground speed, param2 = m/s) before its
+MAV_CMD_NAV_WAYPOINT, which any standard autopilot honours; the plan's times follow from the
+vehicle's position, the legs' lengths and their speeds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from uvteam.autopilot import MAV_CMD_DO_CHANGE_SPEED, MAV_CMD_NAV_WAYPOINT, MissionItem
+from uvteam.geo import LocalFrame
+from uvteam.messages import Plan, Waypoint
+from uvteam.planning import StationPlan
+
+__all__ = ["plan_to_mission", "mission_to_plan"]
+
+
+def plan_to_mission(plan: StationPlan, frame: LocalFrame) -> list[MissionItem]:
+    lat, lon = frame.ground_to_wgs84(plan.en_m[:, 0], plan.en_m[:, 1])
+    items: list[MissionItem] = []
+    for la, lo, sp in zip(np.atleast_1d(lat), np.atleast_1d(lon), plan.speed_m_s):
+        items.append(MissionItem(MAV_CMD_DO_CHANGE_SPEED, param1=1.0, param2=float(sp), param3=-1.0))
+        items.append(MissionItem(MAV_CMD_NAV_WAYPOINT, float(la), float(lo), 0.0))
+    return items
+
+
+def mission_to_plan(vehicle: str, items: list[MissionItem], frame: LocalFrame, start_en_m, now_s: float,
+                    default_speed_m_s: float) -> Plan:
+    speed = default_speed_m_s
+    pos = np.asarray(start_en_m, float)
+    t = now_s
+    wps = []
+    for it in items:
+        if it.command == MAV_CMD_DO_CHANGE_SPEED and it.param2 > 0:
+            speed = float(it.param2)
+        elif it.command == MAV_CMD_NAV_WAYPOINT:
+            e, n = frame.wgs84_to_ground(it.lat_deg, it.lon_deg)
+            nxt = np.array([float(e), float(n)])
+            t += float(np.hypot(*(nxt - pos))) / max(speed, 0.05)
+            pos = nxt
+            wps.append(Waypoint(t, it.lat_deg, it.lon_deg))
+    return Plan(vehicle, now_s, tuple(wps))

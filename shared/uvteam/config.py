@@ -1,0 +1,189 @@
+"""Vehicle configuration: one TOML file per vehicle (deploy/vehicles/*.toml) -> frozen dataclasses.
+
+Unknown or missing keys are errors naming the file and the key; defaults < file < command-line flags.
+
+    [vehicle]   team, id, role ("uav" | "ugv" | "localizer")
+    [bus]       zenoh_config, mode, connect, listen                      (all optional)
+    [autopilot] url, system_id, component_id, signing_key_file, link_timeout_s
+    [uav]       detector, colors (colour -> UGV id), camera, ...         (role uav)
+    [ugv]       uav, team_ugvs, station_radius_m, max_speed_m_s, ...     (role ugv)
+    [localizer] uav, ugvs, origin_lat_deg, origin_lon_deg, gate_px, ...  (role localizer)
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import MISSING, dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+from .bus import BusConfig
+from .errors import ConfigError
+from .keys import check_id
+
+__all__ = ["VehicleConfig", "AutopilotConfig", "UavConfig", "UgvConfig", "LocalizerServiceConfig", "load_vehicle_config"]
+
+
+@dataclass(frozen=True)
+class AutopilotConfig:
+    url: str = ""                          # "" = no autopilot (e.g. the localizer)
+    system_id: int = 1
+    component_id: int = 0                  # 0 = any component of system_id
+    signing_key_file: str = ""             # 32-byte key file for MAVLink 2 signing; "" = unsigned
+    link_timeout_s: float = 3.0
+
+
+@dataclass(frozen=True)
+class UavConfig:
+    detector: str = "sim-sensor"           # "sim-sensor" | "pixels"
+    colors: dict = field(default_factory=dict)   # colour name -> UGV id
+    camera: str = ""                       # frame source URL for "pixels" (device index, file, rtsp://, zenoh)
+    hfov_deg: float = 78.0
+
+
+@dataclass(frozen=True)
+class UgvConfig:
+    uav: str = "uav1"                      # whose crowds this UGV follows
+    team_ugvs: tuple = ()                  # all UGV ids (the planner spreads them around the crowd)
+    station_radius_m: float = 12.0
+    max_speed_m_s: float = 4.0
+    tracking_interval_s: float = 1.0
+    horizon_s: float = 3.0
+    view_half_width_m: float = 0.0         # 0 = unknown: the ring is not shrunk to the UAV's view
+    view_half_height_m: float = 0.0
+    camera: str = ""                       # forward camera for HOG people detection; "" = none
+
+
+@dataclass(frozen=True)
+class LocalizerServiceConfig:
+    uav: str = "uav1"
+    ugvs: tuple = ()                       # UGV ids used as landmarks
+    origin_lat_deg: float = float("nan")   # NaN = the first UGV fix
+    origin_lon_deg: float = float("nan")
+    gate_px: float = 25.0
+    tracking_interval_s: float = 1.0
+    image_coordinates: str = "motion"
+    solver: str = "optimal"
+    hold_max_s: float = 1.0
+    sigma_landmark_px: float = 1.0
+    sigma_target_px: float = 1.5
+    confirm_hits: int = 3
+
+
+@dataclass(frozen=True)
+class VehicleConfig:
+    team: str
+    id: str
+    role: str
+    bus: BusConfig = BusConfig()
+    autopilot: AutopilotConfig = AutopilotConfig()
+    uav: UavConfig = UavConfig()
+    ugv: UgvConfig = UgvConfig()
+    localizer: LocalizerServiceConfig = LocalizerServiceConfig()
+    source: str = ""
+
+
+def _section(cls, data: Any, src: str, name: str):
+    if not isinstance(data, dict):
+        raise ConfigError(src, name, "expected a table")
+    known = {f.name: f for f in fields(cls)}
+    kw = {}
+    for k, v in data.items():
+        if k not in known:
+            raise ConfigError(src, f"{name}.{k}", f"unknown key (known: {', '.join(sorted(known))})")
+        f = known[k]
+        want = f.default if f.default is not MISSING else (f.default_factory() if f.default_factory is not MISSING else None)
+        if isinstance(want, bool) or isinstance(want, str):
+            if not isinstance(v, type(want)):
+                raise ConfigError(src, f"{name}.{k}", f"expected {type(want).__name__}, got {v!r}")
+        elif isinstance(want, float):
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise ConfigError(src, f"{name}.{k}", f"expected a number, got {v!r}")
+            v = float(v)
+        elif isinstance(want, int):
+            if isinstance(v, bool) or not isinstance(v, int):
+                raise ConfigError(src, f"{name}.{k}", f"expected an integer, got {v!r}")
+        elif isinstance(want, tuple):
+            if not isinstance(v, list):
+                raise ConfigError(src, f"{name}.{k}", f"expected a list, got {v!r}")
+            v = tuple(v)
+        elif isinstance(want, dict) and not isinstance(v, dict):
+            raise ConfigError(src, f"{name}.{k}", f"expected a table, got {v!r}")
+        kw[k] = v
+    return cls(**kw)
+
+
+def load_vehicle_config(path: str | Path, *, bus_override: BusConfig | None = None) -> VehicleConfig:
+    p = Path(path)
+    src = str(p)
+    try:
+        raw = tomllib.loads(p.read_text())
+    except FileNotFoundError:
+        raise ConfigError(src, "<file>", "not found") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(src, "<file>", f"not TOML: {exc}") from None
+    allowed = {"vehicle", "bus", "autopilot", "uav", "ugv", "localizer"}
+    for k in raw:
+        if k not in allowed:
+            raise ConfigError(src, k, f"unknown section (known: {', '.join(sorted(allowed))})")
+    v = raw.get("vehicle")
+    if not isinstance(v, dict):
+        raise ConfigError(src, "vehicle", "missing")
+    for k in ("team", "id", "role"):
+        if k not in v:
+            raise ConfigError(src, f"vehicle.{k}", "missing")
+    for k in v:
+        if k not in ("team", "id", "role"):
+            raise ConfigError(src, f"vehicle.{k}", "unknown key")
+    try:
+        check_id("vehicle.team", v["team"])
+        check_id("vehicle.id", v["id"])
+    except ConfigError as exc:
+        raise ConfigError(src, exc.key, exc.reason) from None
+    if v["role"] not in ("uav", "ugv", "localizer"):
+        raise ConfigError(src, "vehicle.role", f"must be uav, ugv or localizer, got {v['role']!r}")
+    b = raw.get("bus", {})
+    bus = BusConfig()
+    if b:
+        for k in b:
+            if k not in ("zenoh_config", "mode", "connect", "listen"):
+                raise ConfigError(src, f"bus.{k}", "unknown key")
+        zc = b.get("zenoh_config") or None
+        if zc and not Path(zc).is_absolute():
+            zc = str((p.parent / zc).resolve()) if (p.parent / zc).exists() else zc
+        bus = BusConfig(config_file=zc, mode=b.get("mode"), connect=tuple(b.get("connect", ())),
+                        listen=tuple(b.get("listen", ())))
+    if bus_override is not None:
+        bus = replace(bus, **{k: getattr(bus_override, k) for k in ("config_file", "mode")
+                               if getattr(bus_override, k)},
+                      **{k: getattr(bus_override, k) for k in ("connect", "listen") if getattr(bus_override, k)})
+    cfg = VehicleConfig(
+        team=v["team"], id=v["id"], role=v["role"], bus=bus,
+        autopilot=_section(AutopilotConfig, raw.get("autopilot", {}), src, "autopilot"),
+        uav=_section(UavConfig, raw.get("uav", {}), src, "uav"),
+        ugv=_section(UgvConfig, raw.get("ugv", {}), src, "ugv"),
+        localizer=_section(LocalizerServiceConfig, raw.get("localizer", {}), src, "localizer"),
+        source=src)
+    if cfg.role in ("uav", "ugv") and not cfg.autopilot.url:
+        raise ConfigError(src, "autopilot.url", f"a {cfg.role} needs its autopilot link")
+    for colour, ugv in cfg.uav.colors.items():
+        check_id(f"uav.colors.{colour}", ugv)
+    if cfg.localizer.image_coordinates not in ("motion", "color"):
+        raise ConfigError(src, "localizer.image_coordinates", "must be motion or color")
+    return cfg
+
+
+def read_signing_key(cfg: VehicleConfig) -> bytes | None:
+    if not cfg.autopilot.signing_key_file:
+        return None
+    kp = Path(cfg.autopilot.signing_key_file)
+    try:
+        key = kp.read_bytes()
+    except OSError as exc:
+        raise ConfigError(cfg.source, "autopilot.signing_key_file", str(exc)) from None
+    if len(key) != 32:
+        raise ConfigError(cfg.source, "autopilot.signing_key_file", f"a signing key has 32 bytes, got {len(key)}")
+    return key
+
+
+__all__ += ["read_signing_key"]
