@@ -1,0 +1,127 @@
+"""The whole team as separate processes on loopback: router, localizer, UAV, six UGVs, simulator.
+
+One run of ~20 s exercises: crowds reaching every UGV service; malformed payloads on every subscribed
+key rejected and counted without a crash; a UGV whose fixes stop (GNSS drop-out) covered by its plan
+for one tracking interval and then dropped; a UGV service killed with SIGKILL seen through liveliness
+within 1 s, after which the localizer carries on with the remaining landmarks.
+"""
+
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from uvteam import keys
+from uvteam.bus import BusConfig, ZenohBus
+from uvteam.messages import Crowds
+from uvteam.service import StopFlag
+from uvteam_ground.demo import Team, run_demo
+
+pytestmark = pytest.mark.integration
+REPO = Path(__file__).resolve().parents[2]
+DROP = (6.0, 10.0)      # ugv3 (index 2) has no fixes in this window
+KILL_AT = 13.0          # the test SIGKILLs ugv6 then
+
+
+@pytest.fixture(scope="module")
+def team_run(tmp_path_factory):
+    d = tmp_path_factory.mktemp("team")
+    text = (REPO / "deploy" / "scenarios" / "demo.toml").read_text()
+    text = text.replace("dropouts = []", f"dropouts = [[2, {DROP[0]}, {DROP[1]}]]")
+    text = text.replace("duration_s = 30.0", "duration_s = 19.0")
+    sc = d / "scenario.toml"
+    sc.write_text(text)
+    team = Team(str(sc), workdir=str(d / "run"))
+    stop = StopFlag(install=False)
+    record = {"crowds": [], "alive_events": [], "kill_wall": None, "garbage_sent": 0}
+    holder = {}
+
+    def on_crowds(key, msg: Crowds):
+        record["crowds"].append((time.time(), msg))
+
+    def on_alive(key, up):
+        record["alive_events"].append((time.time(), keys.vehicle_of(key), up))
+
+    def script():
+        # wait for the sim to start, then act at scenario times
+        while "sim" not in team.procs and not stop.is_set():
+            time.sleep(0.05)
+        t0 = time.time()
+        probe = holder["probe"] = ZenohBus.open(BusConfig(mode="client", connect=(team.endpoint,)))
+        probe.subscribe(keys.key(team.team, team.uav, "crowds"), Crowds, on_crowds)
+        probe.watch_alive(keys.alive_all(team.team), on_alive)
+        while time.time() - t0 < 4.0:
+            time.sleep(0.05)
+        junk = [b"", b"\xc1\xc1", b"\x92\x01\x02", b'\x82\xa6schema\xa5fix/1\xa4data\x80',
+                b'\x82\xa6schema\xa9crowds/9\xa4data\x80']
+        for topic in ("fix", "plan", "detections", "crowds", "sensor"):
+            for v in ("ugv1", team.uav, "ugvX"):
+                for j in junk:
+                    probe.put_raw(keys.key(team.team, v, topic), j)
+                    record["garbage_sent"] += 1
+        while time.time() - t0 < KILL_AT:
+            time.sleep(0.02)
+        record["kill_wall"] = time.time()
+        team.kill("ugv6")
+        record["t0"] = t0
+
+    th = threading.Thread(target=script, daemon=True)
+    th.start()
+    try:
+        summary, codes = run_demo(team, stop, live=False, out=open(d / "view.txt", "w"))
+    finally:
+        th.join(timeout=5)
+        if "probe" in holder:
+            holder["probe"].close()
+    return team, summary, codes, record
+
+
+def test_crowds_reach_every_ugv_and_everything_exits_cleanly(team_run):
+    team, summary, codes, record = team_run
+    assert summary["frames_scored"] > 100
+    assert summary["false_crowds"] == 0
+    for u in team.ugvs:
+        note = summary["ugv_notes"].get(u, "")
+        assert "crowds_received=" in note, f"{u} reported no crowds: {note!r}"
+        got = int(note.split("crowds_received=")[1].split()[0])
+        assert got >= 0.9 * summary["frames_scored"] if u != "ugv6" else got > 50
+    unexpected = {n: c for n, c in codes.items() if n not in team.expected_exit and c not in (0,)}
+    assert not unexpected, f"processes failed: {unexpected}\n" + "\n".join(team.tail(n) for n in unexpected)
+
+
+def test_garbage_rejected_counted_and_survived(team_run):
+    team, summary, codes, record = team_run
+    assert record["garbage_sent"] > 0
+    rej = summary["rejected"]
+    # every service that subscribes to a key we polluted counted what it dropped, and kept running
+    assert rej.get("loc1", 0) > 0, rej        # fix, plan, detections
+    assert rej.get("ugv1", 0) > 0, rej        # fix, crowds
+    assert rej.get(team.uav, 0) > 0, rej      # sensor
+    assert codes["localizer"] == 0 and codes["ugv1"] == 0 and codes[team.uav] == 0
+
+
+def test_fix_dropout_covered_by_plan_then_dropped(team_run):
+    team, summary, codes, record = team_run
+    t0 = record["t0"]
+    rel = [(w - t0, m) for w, m in record["crowds"]]
+    early = [m for t, m in rel if DROP[0] + 0.45 <= t <= DROP[0] + 0.8]   # within one interval of the last fix
+    late = [m for t, m in rel if DROP[0] + 1.6 <= t <= DROP[1] - 0.2]    # beyond it
+    after = [m for t, m in rel if DROP[1] + 1.0 <= t <= KILL_AT - 0.5]     # fixes are back
+    assert early and late and after
+    assert sum("ugv3" in m.landmarks_used for m in early) >= 0.8 * len(early), "the plan did not cover the gap"
+    assert not any("ugv3" in m.landmarks_used for m in late), "a UGV without fixes stayed a landmark too long"
+    assert sum("ugv3" in m.landmarks_used for m in after) >= 0.8 * len(after)
+    assert all(m.crowds for m in late), "the localizer must carry on with five landmarks"
+
+
+def test_killed_ugv_seen_within_1s_and_localizer_carries_on(team_run):
+    team, summary, codes, record = team_run
+    kill = record["kill_wall"]
+    assert kill is not None
+    gone = [w for w, v, up in record["alive_events"] if v == "ugv6" and not up and w >= kill]
+    assert gone and gone[0] - kill < 1.0, f"liveliness DELETE after {gone[0] - kill if gone else None} s"
+    later = [m for w, m in record["crowds"] if w > kill + 1.5]
+    assert len(later) > 20
+    assert all("ugv6" not in m.landmarks_used for m in later)
+    assert sum(bool(m.crowds) for m in later) >= 0.9 * len(later)
