@@ -15,9 +15,12 @@ import time
 import numpy as np
 
 
-def _one_core() -> None:
+def _one_core() -> set[int] | None:
+    """Pin this process to one core (and OpenCV to one thread); returns the old affinity."""
+    old = None
     try:
-        os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+        old = os.sched_getaffinity(0)
+        os.sched_setaffinity(0, {min(old)})
     except (AttributeError, OSError):
         pass
     try:
@@ -26,6 +29,15 @@ def _one_core() -> None:
         cv2.setNumThreads(1)
     except ImportError:
         pass
+    return old
+
+
+def _all_cores(old: set[int] | None) -> None:
+    if old:
+        try:
+            os.sched_setaffinity(0, old)
+        except OSError:
+            pass
 
 
 def bench_localize(repeats: int = 2000) -> dict:
@@ -69,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("what", choices=["localize", "vision", "latency", "all"])
     args = ap.parse_args(argv)
-    _one_core()
+    old = _one_core()
     if args.what in ("localize", "all"):
         bench_localize()
     if args.what in ("vision", "all"):
@@ -80,6 +92,7 @@ def main(argv: list[str] | None = None) -> int:
         else:
             bench_vision.run()
     if args.what in ("latency", "all"):
+        _all_cores(old)  # the team is ten processes: they must not inherit the one-core pin
         try:
             from uvteam_ground import bench_latency  # noqa: PLC0415
         except ImportError:

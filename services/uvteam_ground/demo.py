@@ -240,6 +240,7 @@ class Observer:
             r = np.array([x[2] for x in self.errors])
             matched_after = sum(1 for s, _, _ in self.errors if s >= start_s + 1.0)
             lat = {v: s.note for v, s in self.status.items() if s.service == "ugv"}
+            loc = next((s.note for s in self.status.values() if s.service == "localizer"), "")
             rejected = {v: s.rejected for v, s in self.status.items()}
         return {
             "frames_scored": int(len(e)),
@@ -251,6 +252,7 @@ class Observer:
             "recall_after_1s": matched_after / self.truth_frames if self.truth_frames else math.nan,
             "false_crowds": self.false_crowds,
             "ugv_notes": lat,
+            "localizer_note": loc,
             "rejected": rejected,
         }
 
@@ -303,7 +305,7 @@ def run_demo(team: Team, stop: StopFlag, *, live: bool = True, out=sys.stdout) -
                 print(f"uvteam demo: {', '.join(bad)} exited unexpectedly:\n" +
                       "\n".join(team.tail(b) for b in bad), file=out, flush=True)
                 break
-        time.sleep(0.5)  # the last crowds messages
+        time.sleep(1.5)  # the last crowds messages and one more status from every service
     finally:
         codes = team.stop()
         bus.close()
