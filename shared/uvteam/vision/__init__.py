@@ -1,0 +1,1 @@
+"""Image processing: UAV motion detection, colour landmarks, UGV people detection."""
