@@ -7,10 +7,10 @@ half-read. Format: ../shared/scenarios/README.md.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, fields
 from pathlib import Path
 
+from uvteam.config import read_toml
 from uvteam.errors import ConfigError
 
 __all__ = ["Scenario", "load_scenario"]
@@ -138,12 +138,7 @@ def _section(cls, data, src: str, where: str):
 def load_scenario(path: str | Path) -> Scenario:
     p = Path(path)
     src = str(p)
-    try:
-        raw = tomllib.loads(p.read_text())
-    except FileNotFoundError:
-        raise ConfigError(src, "<file>", "not found") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(src, "<file>", f"not TOML: {exc}") from None
+    raw = read_toml(p)
     top = {"name", "paper_mean_error_m", "world", "run", "uav", "camera", "ugvs", "gnss", "crowds", "landmarks", "events"}
     for k in raw:
         if k not in top:

@@ -11,11 +11,11 @@ import time
 from dataclasses import replace
 
 from uvteam import keys
-from uvteam.autopilot import AutopilotLink
+from uvteam.autopilot import AutopilotLink, fix_from_state
 from uvteam.bus import ZenohBus
 from uvteam.config import VehicleConfig, read_signing_key
 from uvteam.errors import ConfigError
-from uvteam.messages import Detections, Fix, Landmark, Status
+from uvteam.messages import Detections, Landmark, Status
 from uvteam.service import StopFlag
 
 log = logging.getLogger("uvteam.uav")
@@ -50,10 +50,7 @@ def run(cfg: VehicleConfig, stop: StopFlag) -> int:
             st = link.state()
             if st is not None and st.stamp_s > last:
                 last = st.stamp_s
-                bus.publish(keys.key(cfg.team, cfg.id, "fix"),
-                            Fix(cfg.id, st.stamp_s, st.lat_deg, st.lon_deg, st.alt_amsl_m,
-                                (st.heading_deg or 0.0) % 360.0, st.h_acc_m if st.h_acc_m is not None else 5.0,
-                                st.v_east_m_s, st.v_north_m_s))
+                bus.publish(keys.key(cfg.team, cfg.id, "fix"), fix_from_state(cfg.id, st))
             now = time.time()
             if now >= next_status:
                 bus.publish(keys.key(cfg.team, cfg.id, "status"),

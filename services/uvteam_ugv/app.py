@@ -10,7 +10,7 @@ import time
 import numpy as np
 
 from uvteam import keys
-from uvteam.autopilot import AutopilotLink
+from uvteam.autopilot import AutopilotLink, fix_from_state
 from uvteam.bus import ZenohBus
 from uvteam.config import VehicleConfig, read_signing_key
 from uvteam.errors import LinkError
@@ -62,9 +62,7 @@ class UgvService:
         self.last_fix_stamp = st.stamp_s
         if self.frame is None:
             self.frame = LocalFrame(st.lat_deg, st.lon_deg, st.alt_amsl_m)
-        fix = Fix(self.cfg.id, st.stamp_s, st.lat_deg, st.lon_deg, st.alt_amsl_m,
-                  (st.heading_deg or 0.0) % 360.0, st.h_acc_m if st.h_acc_m is not None else 5.0,
-                  st.v_east_m_s, st.v_north_m_s)
+        fix = fix_from_state(self.cfg.id, st)
         self.bus.publish(keys.key(self.cfg.team, self.cfg.id, "fix"), fix)
         self.on_fix("", fix)
         return fix

@@ -36,7 +36,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from .errors import LinkError
 
-__all__ = ["VehicleState", "MissionItem", "AutopilotLink", "mavlink2", "parse_url", "DatagramParser"]
+__all__ = ["VehicleState", "MissionItem", "fix_from_state", "AutopilotLink", "mavlink2", "parse_url", "DatagramParser"]
 
 log = logging.getLogger(__name__)
 
@@ -60,6 +60,14 @@ class VehicleState:
     roll_deg: float | None = None
     pitch_deg: float | None = None
     yaw_deg: float | None = None
+
+
+def fix_from_state(vehicle: str, st: VehicleState, unknown_h_acc_m: float = 5.0):
+    """The bus message for an autopilot state (heading unknown -> 0; accuracy unknown -> a cautious value)."""
+    from .messages import Fix  # noqa: PLC0415
+
+    return Fix(vehicle, st.stamp_s, st.lat_deg, st.lon_deg, st.alt_amsl_m, (st.heading_deg or 0.0) % 360.0,
+               st.h_acc_m if st.h_acc_m is not None else unknown_h_acc_m, st.v_east_m_s, st.v_north_m_s)
 
 
 @dataclass(frozen=True, slots=True)

@@ -113,15 +113,21 @@ def _section(cls, data: Any, src: str, name: str):
     return cls(**kw)
 
 
+def read_toml(path: str | Path) -> dict:
+    """A TOML file as a dict, or ConfigError naming the file."""
+    p = Path(path)
+    try:
+        return tomllib.loads(p.read_text())
+    except (FileNotFoundError, IsADirectoryError):
+        raise ConfigError(str(p), "<file>", "not found") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(str(p), "<file>", f"not TOML: {exc}") from None
+
+
 def load_vehicle_config(path: str | Path, *, bus_override: BusConfig | None = None) -> VehicleConfig:
     p = Path(path)
     src = str(p)
-    try:
-        raw = tomllib.loads(p.read_text())
-    except FileNotFoundError:
-        raise ConfigError(src, "<file>", "not found") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(src, "<file>", f"not TOML: {exc}") from None
+    raw = read_toml(p)
     allowed = {"vehicle", "bus", "autopilot", "uav", "ugv", "localizer"}
     for k in raw:
         if k not in allowed:
@@ -186,4 +192,4 @@ def read_signing_key(cfg: VehicleConfig) -> bytes | None:
     return key
 
 
-__all__ += ["read_signing_key"]
+__all__ += ["read_signing_key", "read_toml"]
