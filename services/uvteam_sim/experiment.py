@@ -27,7 +27,7 @@ from uvteam.planning import plan_stations
 from uvteam.tracking import CrowdTracker
 
 from .scenario import Scenario, load_scenario
-from .world import SimWorld
+from .world import SENSOR_NOISE_PX, SimWorld
 
 __all__ = ["RunResult", "run_scenario_seed", "summarize", "main", "TEAM_DEFAULTS"]
 
@@ -58,8 +58,6 @@ def _ugv_ids(sc: Scenario) -> list[str]:
 
 
 def localizer_config(sc: Scenario, frame, image_coordinates: str | None = None) -> LocalizerConfig:
-    from .world import SENSOR_NOISE_PX  # noqa: PLC0415
-
     return LocalizerConfig(
         frame=frame, gate_px=TEAM_DEFAULTS["gate_px"], tracking_interval_s=TRACKING_INTERVAL_S,
         image_coordinates=image_coordinates or sc.landmarks.image_coordinates,
@@ -170,7 +168,7 @@ def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinat
                     res.ugv_as_crowd += 1
         if t >= 1.0:
             res.truth_frames += len(tru)
-            res.detected_frames += sum(1 for c_ in matched_tru if True)
+            res.detected_frames += len(matched_tru)
         for _ in range(substeps):
             world.step(dt_frame / substeps)
     return res
