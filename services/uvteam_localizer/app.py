@@ -130,7 +130,8 @@ class LocalizerService:
                               sigma_landmark_px=lc.sigma_landmark_px, sigma_target_px=lc.sigma_target_px)
         blobs = np.array([[b.x_px, b.y_px] for b in det.blobs]).reshape(-1, 2)
         boxes = np.array([[b.x0_px, b.y0_px, b.x1_px, b.y1_px] for b in det.blobs]).reshape(-1, 4)
-        obs = FrameObservation(det.stamp_s, {lm.ugv: (lm.x_px, lm.y_px) for lm in det.landmarks}, blobs, boxes)
+        obs = FrameObservation(det.stamp_s, {lm.ugv: (lm.x_px, lm.y_px) for lm in det.landmarks}, blobs, boxes,
+                               tuple(b.ugv for b in det.blobs))
         self.state, res = localize_step(self.state, obs, self.tracks(), cfg)
         en = np.array([[c.east_m, c.north_m] for c in res.crowds]).reshape(-1, 2)
         self.tracker, trk = self.tracker.update(en, det.stamp_s)

@@ -160,7 +160,8 @@ def run(sc, args, stop: StopFlag) -> int:
                     bus.publish(sensor_key, Detections(
                         uav_id, now_unix, frame_seq, sc.camera.width_px, sc.camera.height_px, sc.uav.altitude_agl_m,
                         tuple(Landmark(c, float(x), float(y)) for c, (x, y) in sf.landmarks.items()),
-                        tuple(Blob(float(c[0]), float(c[1]), *map(float, b)) for c, b in zip(sf.blob_xy_px, sf.blob_xyxy_px))))
+                        tuple(Blob(float(c[0]), float(c[1]), *map(float, b), ugv=u)
+                              for c, b, u in zip(sf.blob_xy_px, sf.blob_xyxy_px, sf.blob_colour))))
                     tl = [world.frame.ground_to_wgs84(c[0], c[1]) for c, _ in truth]
                     ul = world.frame.ground_to_wgs84(ugv_p[:, 0], ugv_p[:, 1])
                     bus.publish(truth_key, Truth(

@@ -122,7 +122,7 @@ def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinat
         pose = world.camera_pose()
         sf = sense(world, pose, T0 + t)
         obs = FrameObservation(T0 + t, {colour_to_id[c]: xy for c, xy in sf.landmarks.items()},
-                               sf.blob_xy_px, sf.blob_xyxy_px)
+                               sf.blob_xy_px, sf.blob_xyxy_px, tuple(colour_to_id.get(c, "") for c in sf.blob_colour))
         tracks = {}
         for u in ids:
             if not fixes[u]:

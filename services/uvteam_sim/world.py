@@ -9,8 +9,11 @@ Modelling choices (each a scenario field or stated here):
   around offsets drawn with ``spread_m``; a crowd moves at its velocity (or a speed drawn from
   ``speed_range_m_s`` with the heading kept);
 - a UGV drives towards its current mission waypoint at the leg's commanded speed, limited to
-  ``station_speed_m_s`` while it is on station (within 3 m of its station ring) and to
-  ``approach_speed_m_s`` otherwise (approaching, or catching up after falling behind);
+  ``station_speed_m_s`` while it is on station and to ``approach_speed_m_s`` otherwise (approaching,
+  or catching up after falling behind). On station means within 3 m of the station ring *and* within
+  reach of its next waypoint (3 m plus one second at station speed): a UGV that has slid round the ring
+  behind its own station is not on station, so a crowd faster than the station speed does not sweep
+  the team to its trailing side;
 - the UAV keeps the crowd centroid under the camera with a first-order lag (``follow_time_constant_s``)
   plus a slow hover wander (``hover_wobble_m``, 3 s correlation); gimbal jitter is fresh every frame;
 - terrain: height = relief/2 * sin(2 pi e / wavelength) * cos(2 pi n / wavelength) above the plane;
@@ -41,6 +44,8 @@ WOBBLE_TAU_S = 3.0
 SENSOR_NOISE_PX = {"colour": 0.5, "ugv_blob": 1.0, "crowd_blob": 1.5}
 MISS_PROB = 0.02
 FALSE_BLOBS_PER_FRAME = 0.05
+STATION_BAND_M = 3.0
+STATION_LEAD_S = 1.0
 MOVING_M_S = 0.2  # frame differencing sees a UGV only when it moves
 GNSS_VEL_SIGMA_M_S = 0.05
 
@@ -51,12 +56,14 @@ class SensorFrame:
     landmarks: dict[str, tuple[float, float]]    # colour -> px
     blob_xy_px: np.ndarray
     blob_xyxy_px: np.ndarray
-    blob_kind: tuple[str, ...]                   # "ugv:<colour>" | "crowd:<k>" | "false" (truth, for scoring)
+    blob_kind: tuple[str, ...]                   # "ugv:<colour>" | "crowd:<k>" | "false" (truth, for diagnostics)
+    blob_colour: tuple[str, ...] = ()            # per blob: the roof colour the detector saw in it, or ""
 
 
 class SimWorld:
     def __init__(self, sc: Scenario, seed: int) -> None:
         self.sc = sc
+        self.seed = seed
         self.rng = np.random.default_rng(seed)
         rng = self.rng
         self.frame = LocalFrame(sc.world.origin_lat_deg, sc.world.origin_lon_deg, sc.world.ground_amsl_m)
@@ -133,9 +140,11 @@ class SimWorld:
         cents = self.crowd_centroids()
         for i in range(sc.ugvs.count):
             d = np.sqrt(((cents - self.ugv_p[i]) ** 2).sum(1)).min()
-            self.ugv_on_station[i] = abs(d - sc.ugvs.station_radius_m) <= 3.0
-            limit = sc.ugvs.station_speed_m_s if self.ugv_on_station[i] else sc.ugvs.approach_speed_m_s
             mission, w = self.missions[i], self.wp_index[i]
+            to_wp = np.hypot(*(np.array(mission[w][:2]) - self.ugv_p[i])) if w < len(mission) else 0.0
+            self.ugv_on_station[i] = (abs(d - sc.ugvs.station_radius_m) <= STATION_BAND_M
+                                      and to_wp <= STATION_BAND_M + sc.ugvs.station_speed_m_s * STATION_LEAD_S)
+            limit = sc.ugvs.station_speed_m_s if self.ugv_on_station[i] else sc.ugvs.approach_speed_m_s
             p_before = self.ugv_p[i].copy()
             moved = 0.0
             budget = dt
@@ -200,7 +209,7 @@ class SimWorld:
         """The sensor model: what a detector would report in this frame, with noise, misses, false blobs."""
         rng, sc, cam = self.rng, self.sc, self.camera
         lm_px = project(cam, pose, self.ugv_label_enu())
-        landmarks, xy, boxes, kinds = {}, [], [], []
+        landmarks, xy, boxes, kinds, colours = {}, [], [], [], []
         half = 0.5 * max(sc.ugvs.length_m, sc.ugvs.width_m) * cam.focal_px / sc.uav.altitude_agl_m
         for i, colour in enumerate(sc.ugvs.colors):
             if not self._in_image(lm_px[i]):
@@ -212,6 +221,7 @@ class SimWorld:
                 xy.append(c)
                 boxes.append([c[0] - half, c[1] - half, c[0] + half, c[1] + half])
                 kinds.append(f"ugv:{colour}")
+                colours.append(colour if colour in landmarks else "")  # the label lies inside its blob
         r_px = PERSON_RADIUS_M * cam.focal_px / sc.uav.altitude_agl_m
         for k, m in enumerate(self._blob_groups()):
             enu = np.column_stack([m, self.terrain_up_m(m) + PERSON_CENTRE_HEIGHT_M])
@@ -224,11 +234,13 @@ class SimWorld:
             xy.append(c)
             boxes.append([p[:, 0].min() - r_px, p[:, 1].min() - r_px, p[:, 0].max() + r_px, p[:, 1].max() + r_px])
             kinds.append(f"crowd:{k}")
+            colours.append("")
         for _ in range(rng.poisson(FALSE_BLOBS_PER_FRAME)):
             c = rng.uniform([0, 0], [cam.width_px, cam.height_px])
             s = rng.uniform(2, 4) * r_px
             xy.append(c)
             boxes.append([c[0] - s, c[1] - s, c[0] + s, c[1] + s])
             kinds.append("false")
+            colours.append("")
         return SensorFrame(stamp_s, landmarks, np.array(xy, float).reshape(-1, 2),
-                           np.array(boxes, float).reshape(-1, 4), tuple(kinds))
+                           np.array(boxes, float).reshape(-1, 4), tuple(kinds), tuple(colours))

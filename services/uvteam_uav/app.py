@@ -24,7 +24,8 @@ log = logging.getLogger("uvteam.uav")
 def relabel(det: Detections, vehicle: str, colors: dict[str, str]) -> Detections:
     """Colour names -> UGV ids; colours not in the table are dropped (not our team's)."""
     lms = tuple(Landmark(colors[lm.ugv], lm.x_px, lm.y_px) for lm in det.landmarks if lm.ugv in colors)
-    return replace(det, vehicle=vehicle, landmarks=lms)
+    blobs = tuple(replace(b, ugv=colors.get(b.ugv, "")) for b in det.blobs)
+    return replace(det, vehicle=vehicle, landmarks=lms, blobs=blobs)
 
 
 def run(cfg: VehicleConfig, stop: StopFlag) -> int:

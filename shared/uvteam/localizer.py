@@ -5,11 +5,13 @@ Per frame (:func:`localize_step`):
 1. Each UGV's ground position at the frame's capture time: interpolated between its fixes; a short
    extrapolation past the newest fix (fix latency); when fixes are late or missing, its planned
    waypoints for at most one tracking interval after the newest fix (the paper's rule); else unusable.
-2. Landmark <-> blob assignment: solved afresh at the start of each tracking interval from the colour
+2. Landmark <-> blob assignment: a blob in which the detector saw a UGV's roof label is that UGV's;
+   the rest solved afresh at the start of each tracking interval from the colour
    centres; inside the interval the pairing is kept by continuity (each UGV's previous motion-blob
    centre predicts where its blob is now), so a UGV whose colour flickers keeps its blob.
-   Every blob within the gate of a landmark, or whose box holds a UGV's projected position, is a UGV,
-   never a crowd.
+   Every blob within the gate of a landmark is a UGV, never a crowd; so is a blob whose box holds,
+   or whose centre is near, the projected position of a UGV that was seen neither by colour nor by
+   an assigned blob in this frame.
 3. The transform from >= 4 usable landmarks: exact (4), least squares (> 4), robust with named
    outliers (>= 5). With fewer, the last good transform is held for ``hold_max_s`` and flagged HELD.
 4. Every remaining blob mapped to lat/lon (centre and box footprint) with a 95 % radius from the fit's
@@ -61,6 +63,7 @@ class FrameObservation:
     landmarks_px: dict[str, tuple[float, float]]  # UGV id -> colour-blob centre
     blob_xy_px: np.ndarray                  # (N, 2) motion-blob centres
     blob_xyxy_px: np.ndarray                # (N, 4) motion-blob boxes
+    blob_ugv: tuple[str, ...] = ()          # per blob: the UGV whose roof label the detector saw in it, or ""
 
 
 @dataclass(frozen=True, slots=True)
@@ -196,15 +199,22 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: dict[str
     ref: dict[str, tuple[float, float]] = dict(obs.landmarks_px)
     if not new_interval:
         ref.update(prev)  # the previous blob predicts the current one better than a flickering colour
-    ugv_ids = sorted(ref)
+    # blobs the detector already knows to be a UGV (its roof label lies in the blob) are that UGV's
+    labelled = {u: j for j, u in enumerate(obs.blob_ugv[:nb]) if u}
+    ugv_ids = sorted(u for u in ref if u not in labelled)
+    free = np.array([j for j in range(nb) if j not in labelled.values()], int)
     ref_xy = np.array([ref[u] for u in ugv_ids], float).reshape(-1, 2)
     solve = assign_optimal if cfg.solver == "optimal" else assign_greedy
-    asg = solve(ref_xy, blobs, cfg.gate_px)
-    gated = asg.gated_blobs.copy()
+    asg = solve(ref_xy, blobs[free], cfg.gate_px)
+    gated = np.zeros(nb, bool)
+    gated[free] = asg.gated_blobs
+    gated[list(labelled.values())] = True
     if obs.landmarks_px and nb:  # colour centres gate blobs too, whatever the continuity says
         col = np.array(list(obs.landmarks_px.values()), float)
         gated |= (np.sqrt(((col[:, None] - blobs[None]) ** 2).sum(-1)) <= cfg.gate_px).any(0)
-    blob_of_ugv = {ugv_ids[i]: j for i, j in asg.blob_of_landmark.items()}
+    blob_of_ugv = {ugv_ids[i]: int(free[j]) for i, j in asg.blob_of_landmark.items()}
+    blob_of_ugv.update(labelled)
+    ugv_ids = sorted(ref)
     interval_start = t if new_interval else state.interval_start_s
 
     # landmark image coordinates
@@ -248,9 +258,12 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: dict[str
 
     crowds: list[CrowdEstimate] = []
     if fit is not None and nb:
-        # UGVs whose projected position lies in a blob's box are never crowds (colour missed too)
-        if positions:
-            ugv_px = fit.ground_to_px(np.array([p[0] for p in positions.values()]))
+        # a UGV whose colour was missed and that holds no assigned blob: a blob whose box holds its
+        # projected position, or near it, is that UGV, never a crowd (a UGV that was seen is not looked
+        # for in other blobs: the detector carves a UGV out of a crowd it drives through)
+        unseen = [u for u in positions if u not in obs.landmarks_px and u not in blob_of_ugv]
+        if unseen:
+            ugv_px = fit.ground_to_px(np.array([positions[u][0] for u in unseen]))
             inside = ((ugv_px[:, None, 0] >= boxes[None, :, 0]) & (ugv_px[:, None, 0] <= boxes[None, :, 2])
                       & (ugv_px[:, None, 1] >= boxes[None, :, 1]) & (ugv_px[:, None, 1] <= boxes[None, :, 3]))
             near = np.sqrt(((ugv_px[:, None] - blobs[None]) ** 2).sum(-1)) <= cfg.gate_px

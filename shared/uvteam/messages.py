@@ -84,6 +84,7 @@ class Blob:
     y1_px: float
     v_x_px_s: float = 0.0
     v_y_px_s: float = 0.0
+    ugv: str = ""           # the UGV this blob is, when the detector saw its roof label in it; else ""
 
 
 @dataclass(frozen=True, slots=True)

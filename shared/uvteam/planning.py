@@ -3,9 +3,13 @@
 Stations are ``n`` points evenly spaced on a ring of ``radius_m`` around where the crowd will be
 (its position plus velocity times the lead time), so four or more are never collinear, and the ring
 is shrunk to fit inside the UAV camera's ground footprint (with a margin) so every UGV stays in view
-as a landmark. UGVs are matched to stations by the optimal assignment on distance, which every UGV
-service computes identically from the same fixes, so each can plan for itself without a coordinator.
-The ring's phase is chosen so that the assignment moves the team least.
+as a landmark. UGVs are matched to stations keeping their cyclic order around the crowd (the
+assignment moving the team least among those that keep the order): a UGV is never sent across the
+ring, so no path runs through the crowd, where a UGV's motion blob would merge with the crowd's. Every
+UGV service computes the same plan from the same fixes, so each can plan for itself without a
+coordinator. The ring's phase is chosen with the assignment. When a UGV's straight way to its station
+would still pass within ``clearance`` x radius of the crowd (the team bunched on one side), it goes
+round on the ring instead, in arcs of at most 60 degrees.
 """
 
 from __future__ import annotations
@@ -13,7 +17,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 __all__ = ["StationPlan", "plan_stations"]
 
@@ -29,7 +32,7 @@ class StationPlan:
 def plan_stations(crowd_en_m, crowd_v_m_s, ugv_en_m: dict[str, np.ndarray], now_s: float, *,
                   radius_m: float, view_half_m: tuple[float, float] | None = None,
                   horizon_s: float = 3.0, step_s: float = 1.0, max_speed_m_s: float = 4.0,
-                  n_phases: int = 12) -> dict[str, StationPlan]:
+                  n_phases: int = 12, clearance: float = 0.7) -> dict[str, StationPlan]:
     ids = sorted(ugv_en_m)
     n = len(ids)
     if n == 0:
@@ -41,22 +44,31 @@ def plan_stations(crowd_en_m, crowd_v_m_s, ugv_en_m: dict[str, np.ndarray], now_
         r = min(r, 0.8 * min(view_half_m))
     pos = np.array([ugv_en_m[u] for u in ids], float)
     base = 2 * np.pi * np.arange(n) / n
+    order = np.argsort(np.arctan2(pos[:, 0] - c[0], pos[:, 1] - c[1]) % (2 * np.pi), kind="stable")
     best = None
     for phase in np.linspace(0, 2 * np.pi / n, n_phases, endpoint=False):
         ang = base + phase
         st = c + r * np.column_stack([np.sin(ang), np.cos(ang)])
         d = np.sqrt(((pos[:, None] - st[None]) ** 2).sum(-1))
-        ri, ci = linear_sum_assignment(d)
-        cost = d[ri, ci].sum()
-        if best is None or cost < best[0] - 1e-9:
-            best = (cost, ang[ci])
+        for shift in range(n):
+            ci = (np.arange(n) + shift) % n            # the k-th UGV by bearing -> station k + shift
+            cost = d[order, ci].sum()
+            if best is None or cost < best[0] - 1e-9:
+                ang_of = np.empty(n)
+                ang_of[order] = ang[ci]
+                best = (cost, ang_of)
     ang_of = best[1]
+    c_next = c + v * step_s
     k = max(int(round(horizon_s / step_s)), 1)
     ts = now_s + step_s * np.arange(1, k + 1)
+    # (the times of detour points follow from the speeds below)
     out = {}
     for i, u in enumerate(ids):
         off = r * np.array([np.sin(ang_of[i]), np.cos(ang_of[i])])
         wps = c + off + np.outer(ts - now_s, v)
+        around = _detour(pos[i], wps[0], c_next, r, clearance)
+        if len(around):
+            wps = np.vstack([around, wps])
         prev = np.vstack([pos[i], wps[:-1]])
         leg = np.sqrt(((wps - prev) ** 2).sum(1))
         speed = np.minimum(leg / step_s, max_speed_m_s)
@@ -64,3 +76,21 @@ def plan_stations(crowd_en_m, crowd_v_m_s, ugv_en_m: dict[str, np.ndarray], now_
         dt = np.where(speed > 0, leg / np.maximum(speed, 1e-9), step_s)
         out[u] = StationPlan(u, now_s + np.cumsum(dt), wps, np.maximum(speed, 0.1))
     return out
+
+
+def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    ab = b - a
+    t = float(np.clip(np.dot(p - a, ab) / max(float(np.dot(ab, ab)), 1e-12), 0.0, 1.0))
+    return float(np.linalg.norm(a + t * ab - p))
+
+
+def _detour(start: np.ndarray, goal: np.ndarray, centre: np.ndarray, r: float, clearance: float) -> np.ndarray:
+    """Points on the ring from ``start``'s bearing towards ``goal``'s, the short way round, or none."""
+    if r <= 0 or _segment_distance(centre, start, goal) >= clearance * r:
+        return np.empty((0, 2))
+    a0 = np.arctan2(*(start - centre))
+    a1 = np.arctan2(*(goal - centre))
+    da = (a1 - a0 + np.pi) % (2 * np.pi) - np.pi
+    m = int(np.ceil(abs(da) / (np.pi / 3)))
+    ang = a0 + da * np.arange(0, m) / m
+    return centre + r * np.column_stack([np.sin(ang), np.cos(ang)])

@@ -69,6 +69,29 @@ def test_planner_spreads_ugvs_non_collinear_and_in_view():
         assert np.all(np.diff(p.stamp_s) > 0) and np.all(p.speed_m_s <= 4.0 + 1e-9)
 
 
+def _segment_distance(p, a, b):
+    ab = b - a
+    t = np.clip(np.dot(p - a, ab) / max(np.dot(ab, ab), 1e-12), 0.0, 1.0)
+    return float(np.linalg.norm(a + t * ab - p))
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_planner_never_sends_a_ugv_through_the_crowd(seed):
+    # UGVs anywhere around the crowd, bunched or not: every leg up to the station keeps clear of the
+    # crowd centre (a motion blob of a UGV driving through a crowd merges with the crowd's blob).
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(4, 7))
+    r = 12.0
+    ang = rng.uniform(0, 2 * np.pi, n)
+    dist = rng.uniform(r, 2 * r, n)
+    ugvs = {f"ugv{i}": dist[i] * np.array([np.sin(ang[i]), np.cos(ang[i])]) for i in range(n)}
+    plans = plan_stations([0, 0], [0.0, 0.0], ugvs, 0.0, radius_m=r)
+    for u, p in plans.items():
+        path = np.vstack([ugvs[u], p.en_m[:-2]])  # up to its station (the last two follow the crowd)
+        for a, b in zip(path[:-1], path[1:]):
+            assert _segment_distance(np.zeros(2), a, b) >= 0.5 * r, u
+
+
 def test_plan_mission_round_trip():
     frame = LocalFrame(31.485, -111.544)
     plans = plan_stations([0, 0], [2.0, 0.0], {"a": np.array([-12.0, 0.0])}, 1000.0, radius_m=12.0)

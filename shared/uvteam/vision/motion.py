@@ -9,8 +9,8 @@ Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale``
 3. absolute difference, threshold, restricted to pixels both frames see;
 4. a motion history: the pixels that moved in the last ``history_s`` seconds, warped along with the
    camera so it stays registered, so that a crowd whose members move little per frame stays one blob;
-5. morphology: an opening removes speckle, a closing of about one crowd spacing joins members into one
-   blob; connected components with areas between the altitude-derived bounds (a person's footprint to
+5. morphology: an opening removes speckle, a square closing of about one crowd spacing joins members
+   into one blob; connected components with areas between the altitude-derived bounds (a person's footprint to
    the largest crowd) are the blobs; their centres are the centroids of this frame's moving pixels
    (not of the whole history, whose centroid trails a moving crowd).
 
@@ -20,10 +20,12 @@ by size and velocity as functions of altitude. Time is passed in; nothing here r
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
+
+MIN_VEHICLE_AREA_PX = 4.0   # a carved vehicle's blob only needs to be more than noise
 
 __all__ = ["MotionConfig", "MotionBlobs", "MotionDetector", "bounds_for_altitude", "compensate"]
 
@@ -75,6 +77,11 @@ class MotionBlobs:
     n_tracked: int             # corners that survived LK and the forward-backward check
     n_inliers: int             # of those, consistent with the camera-motion model
     residual_px: float         # RMS of the inliers' transfer error (processed pixels)
+    carved: np.ndarray = field(default_factory=lambda: np.empty(0, int))  # (N,) carve point of a vehicle's blob, else -1
+
+    def __post_init__(self) -> None:
+        if len(self.carved) != len(self.area_px):
+            object.__setattr__(self, "carved", np.full(len(self.area_px), -1, int))
 
     @staticmethod
     def empty(n_tracked: int = 0, n_inliers: int = 0, residual_px: float = float("nan")) -> "MotionBlobs":
@@ -117,13 +124,21 @@ class MotionDetector:
         self._prev: np.ndarray | None = None
         self._mhi: np.ndarray | None = None
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
-        self._k_close = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.merge_px, cfg.merge_px))
+        # a square closing: it joins members up to merge_px apart, and costs the same at any size
+        self._k_close = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.merge_px, cfg.merge_px))
 
     def reset(self) -> None:
         self._prev = None
         self._mhi = None
 
-    def update(self, frame: np.ndarray, stamp_s: float) -> MotionBlobs:
+    def update(self, frame: np.ndarray, stamp_s: float, carve_xy_px: np.ndarray | None = None,
+               carve_radius_px: float = 0.0) -> MotionBlobs:
+        """Blobs moving in ``frame``. ``carve_xy_px`` (full-resolution points, e.g. colour-detected
+        vehicles) split a blob that holds one of them and is more than the carved disc: the moving
+        pixels within ``carve_radius_px`` of the point become a blob of their own, the rest another, so
+        a vehicle driving through a crowd neither hides the crowd nor is reported as part of it. A blob
+        that is a vehicle's (carved, or holding its point with no more than a vehicle's worth) says
+        which point in ``MotionBlobs.carved``, and needs no crowd-sized area."""
         cfg = self.cfg
         gray = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame
         s = cfg.process_scale
@@ -143,6 +158,11 @@ class MotionDetector:
         diff = cv2.absdiff(curr, warped)
         _, moving = cv2.threshold(diff, cfg.diff_threshold, 255, cv2.THRESH_BINARY)
         moving &= valid
+        b = cfg.border_px  # the frame's own edge too: lens edge, and where a renderer or ISP extrapolates
+        moving[:b] = 0
+        moving[-b:] = 0
+        moving[:, :b] = 0
+        moving[:, -b:] = 0
         moving = cv2.morphologyEx(moving, cv2.MORPH_OPEN, self._k_open)
         # motion history, kept registered with the camera
         mhi = cv2.warpPerspective(self._mhi, M, (w, h), flags=cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT)
@@ -152,21 +172,42 @@ class MotionDetector:
         self._mhi = mhi
         joined = cv2.morphologyEx(recent, cv2.MORPH_CLOSE, self._k_close)
         n, labels, stats, cents = cv2.connectedComponentsWithStats(joined, connectivity=8)
-        xy, boxes, areas = [], [], []
+        xy, boxes, areas, carved = [], [], [], []
         inv = 1.0 / s
+        carve = np.empty((0, 2)) if carve_xy_px is None else (np.asarray(carve_xy_px, float).reshape(-1, 2) + 0.5) * s - 0.5
+        r2 = (carve_radius_px * s) ** 2
         for i in range(1, n):
             x, y, bw, bh, _ = stats[i]
             comp = labels[y:y + bh, x:x + bw] == i
             m = comp & (recent[y:y + bh, x:x + bw] > 0)       # the pixels that moved lately
-            area = float(m.sum()) * inv * inv
-            if not cfg.min_area_px <= area <= cfg.max_area_px:
-                continue
-            # The centre comes from this frame's moving pixels: the history's centroid would trail the
-            # crowd by half the history (0.6 m at 3 m/s, 0.4 s); this lags by half a frame at most.
             now = comp & (moving[y:y + bh, x:x + bw] > 0)
-            ys, xs = np.nonzero(now if now.any() else m)
-            xy.append([(xs.mean() + x + 0.5) * inv - 0.5, (ys.mean() + y + 0.5) * inv - 0.5])
-            boxes.append([x * inv, y * inv, (x + bw) * inv, (y + bh) * inv])
-            areas.append(area)
+            parts = [(m, now, cfg.min_area_px, -1)]
+            inside = [ci for ci, (cx, cy) in enumerate(carve) if x <= cx < x + bw and y <= cy < y + bh] if r2 > 0 else []
+            if inside:
+                # each pixel within the radius of a vehicle's point is that (nearest) vehicle's; what is
+                # left is a crowd only if it is more than a vehicle's worth, else the vehicles' trail
+                gy, gx = np.mgrid[y:y + bh, x:x + bw]
+                d2 = np.stack([(gx - carve[ci, 0]) ** 2 + (gy - carve[ci, 1]) ** 2 for ci in inside])
+                nearest = d2.argmin(0)
+                near = d2.min(0) <= r2
+                parts = []
+                if (m & ~near).sum() >= np.pi * r2:
+                    parts.append((m & ~near, now & ~near, cfg.min_area_px, -1))
+                for k, ci in enumerate(inside):
+                    own = near & (nearest == k)
+                    parts.append((m & own, now & own, MIN_VEHICLE_AREA_PX, ci))
+            for pm, pnow, min_area, ci in parts:
+                area = float(pm.sum()) * inv * inv
+                if not min_area <= area <= cfg.max_area_px:
+                    continue
+                # The centre comes from this frame's moving pixels: the history's centroid would trail
+                # the crowd by half the history (0.6 m at 3 m/s, 0.4 s); this lags by half a frame at most.
+                ys, xs = np.nonzero(pnow if pnow.any() else pm)
+                bys, bxs = np.nonzero(pm)
+                xy.append([(xs.mean() + x + 0.5) * inv - 0.5, (ys.mean() + y + 0.5) * inv - 0.5])
+                boxes.append([(bxs.min() + x) * inv, (bys.min() + y) * inv, (bxs.max() + x + 1) * inv,
+                              (bys.max() + y + 1) * inv])
+                areas.append(area)
+                carved.append(ci)
         return MotionBlobs(np.array(xy, float).reshape(-1, 2), np.array(boxes, float).reshape(-1, 4),
-                           np.array(areas, float), n_tr, n_in, rms)
+                           np.array(areas, float), n_tr, n_in, rms, np.array(carved, int))

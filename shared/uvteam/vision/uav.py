@@ -1,0 +1,87 @@
+"""The UAV's pixel pipeline: one frame in, colour landmarks and motion blobs out. No I/O, no clock.
+
+:class:`UavVision` holds the motion detector's state and sizes its bounds from the altitude the
+caller passes with each frame (the autopilot's height above ground): blob area bounds (at least
+``min_crowd_m2`` of moving ground, about three people: a lone walker is not a crowd), the kernel that
+joins a crowd's members into one blob, and the processing scale (full resolution when a person would
+be under 3 pixels at half scale, otherwise half). The detector is rebuilt, losing its one frame of
+history, only when the altitude changes by more than 15 %. Colour landmarks are found first and
+carved out of the motion blobs that hold them (:meth:`MotionDetector.update`), so a UGV passing
+through a crowd leaves the crowd's blob intact beside its own. Colour-label area bounds come from the
+label's side and the altitude too, so a shrub of the right hue but the wrong size is not a landmark.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .landmarks import LandmarkConfig, detect_landmarks
+from .motion import MotionBlobs, MotionConfig, MotionDetector, bounds_for_altitude
+
+__all__ = ["UavVisionConfig", "UavVision", "UavFrameResult"]
+
+
+@dataclass(frozen=True, slots=True)
+class UavVisionConfig:
+    focal_px: float
+    colours: tuple[str, ...]                  # the roof colours to look for
+    label_side_m: float = 1.0
+    vehicle_radius_m: float = 2.0             # a UGV with its shadow, around its roof label
+    person_m: float = 0.5
+    crowd_spacing_m: float = 4.0              # members this far apart still make one blob
+    crowd_max_m: float = 40.0
+    min_crowd_m2: float = 6.0                 # moving ground area of about three people in the history
+    motion: MotionConfig = field(default_factory=MotionConfig)
+    landmarks: LandmarkConfig = field(default_factory=LandmarkConfig)
+
+    def __post_init__(self) -> None:
+        if not self.focal_px > 0:
+            raise ValueError(f"focal_px must be > 0, got {self.focal_px}")
+        unknown = [c for c in self.colours if c not in self.landmarks.colours]
+        if unknown:
+            raise ValueError(f"no HSV range for colours {unknown}; known: {', '.join(self.landmarks.colours)}")
+
+
+@dataclass(frozen=True, slots=True)
+class UavFrameResult:
+    stamp_s: float
+    landmarks_px: dict[str, tuple[float, float]]     # colour -> centre
+    blobs: MotionBlobs
+    blob_colour: tuple[str, ...]                      # per blob: the colour of the UGV it is, or ""
+
+
+class UavVision:
+    def __init__(self, cfg: UavVisionConfig) -> None:
+        self.cfg = cfg
+        self._alt_m: float | None = None
+        self._motion: MotionDetector | None = None
+        self._lm_cfg = cfg.landmarks
+
+    def _configure(self, alt_agl_m: float) -> None:
+        cfg = self.cfg
+        person_px = cfg.person_m * cfg.focal_px / alt_agl_m
+        base = replace(cfg.motion, process_scale=1.0 if person_px * cfg.motion.process_scale < 3.0 else cfg.motion.process_scale)
+        mc = bounds_for_altitude(alt_agl_m, cfg.focal_px, person_m=cfg.person_m, spacing_m=cfg.crowd_spacing_m,
+                                 crowd_max_m=cfg.crowd_max_m, base=base)
+        mc = replace(mc, min_area_px=max(mc.min_area_px, cfg.min_crowd_m2 * (cfg.focal_px / alt_agl_m) ** 2))
+        self._motion = MotionDetector(mc)
+        label_px2 = (cfg.label_side_m * cfg.focal_px / alt_agl_m) ** 2
+        self._lm_cfg = replace(cfg.landmarks, min_area_px=max(3.0, 0.25 * label_px2), max_area_px=4.0 * label_px2 + 25.0)
+        self._alt_m = alt_agl_m
+
+    @property
+    def motion_config(self) -> MotionConfig | None:
+        return None if self._motion is None else self._motion.cfg
+
+    def update(self, frame_bgr: np.ndarray, stamp_s: float, alt_agl_m: float) -> UavFrameResult:
+        if not (np.isfinite(alt_agl_m) and alt_agl_m > 1.0):
+            raise ValueError(f"alt_agl_m must be a finite height above 1 m, got {alt_agl_m}")
+        if self._alt_m is None or abs(alt_agl_m - self._alt_m) > 0.15 * self._alt_m:
+            self._configure(alt_agl_m)
+        lms = detect_landmarks(frame_bgr, self._lm_cfg, self.cfg.colours)
+        names = list(lms)
+        carve = np.array([lms[c] for c in names], float).reshape(-1, 2)
+        blobs = self._motion.update(frame_bgr, stamp_s, carve, self.cfg.vehicle_radius_m * self.cfg.focal_px / alt_agl_m)
+        return UavFrameResult(stamp_s, lms, blobs, tuple(names[c] if c >= 0 else "" for c in blobs.carved))
