@@ -72,6 +72,7 @@ def main(argv: list[str] | None = None) -> int:
                 n = stats["n"]
             if not args.summary:
                 out = messages.as_dict(msg) if msg is not None else {"raw_bytes": len(raw)}
+                out = {k2: (f"<{len(v)} bytes>" if isinstance(v, bytes) else v) for k2, v in out.items()}
                 print(json.dumps({"key": k, **out}, separators=(",", ":")), flush=True)
             if args.count and n >= args.count:
                 stop.set()

@@ -4,8 +4,9 @@
   ``udpin`` port, serves missions, and steers the simulated vehicle with what it is sent;
 - GNSS follows the scenario (rate, noise, bias, latency, drop-outs); a lost UGV (``events.lose_ugv``)
   goes silent, as a vehicle whose computer died;
-- every frame: the sensor model's detections on ``uvteam/<team>/<uav>/sensor`` (colour-labelled) and the
-  ground truth on ``uvteam/<team>/sim/truth``, both stamped with the frame's capture time.
+- every frame: the rendered UAV camera frame on ``uvteam/<team>/<uav>/frame`` (``--frames pixels``, the
+  default) or the sensor model's detections on ``uvteam/<team>/<uav>/sensor`` (``--frames sensor``), and
+  the ground truth on ``uvteam/<team>/sim/truth``, all stamped with the frame's capture time.
 """
 
 from __future__ import annotations
@@ -22,10 +23,12 @@ from uvteam import keys
 from uvteam.autopilot import MAV_CMD_DO_CHANGE_SPEED, MAV_CMD_NAV_WAYPOINT, mavlink2
 from uvteam.bus import ZenohBus, add_bus_args, bus_config_from_args
 from uvteam.errors import ConfigError, LinkError
+from uvteam.frames import encode_frame
 from uvteam.messages import Blob, Detections, Landmark, Truth, TruthCrowd, TruthUgv
 from uvteam.service import StopFlag, setup_logging
 
 from .autopilot import SimAutopilot
+from .render import Renderer
 from .scenario import load_scenario
 from .world import SimWorld
 
@@ -62,6 +65,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--ugv", type=_vehicle_arg, action="append", default=[], metavar="ID:PORT:SYSID",
                     help="one per UGV, in the order of the scenario's colours")
     ap.add_argument("--duration", type=float, default=None, help="seconds (default: the scenario's)")
+    ap.add_argument("--frames", choices=["pixels", "sensor"], default="pixels",
+                    help="pixels: render the UAV camera and publish frames (.../<uav>/frame); "
+                         "sensor: publish the sensor model's detections (.../<uav>/sensor)")
+    ap.add_argument("--frame-jpeg", type=int, default=0, metavar="Q",
+                    help="send frames as JPEG at quality Q (1-100) instead of raw BGR (0, default); the "
+                         "scenario's own jpeg_quality is applied by the camera model either way")
     ap.add_argument("--log-level", default="INFO")
     add_bus_args(ap)
     args = ap.parse_args(argv)
@@ -85,6 +94,7 @@ def main(argv: list[str] | None = None) -> int:
 def run(sc, args, stop: StopFlag) -> int:
     seed = args.seed if args.seed is not None else sc.run.seeds[0]
     world = SimWorld(sc, seed)
+    renderer = Renderer(world, np.random.default_rng([seed, 0x5EE])) if args.frames == "pixels" else None
     lock = threading.Lock()
     t0 = time.time()
     boot = t0 - 60.0
@@ -108,6 +118,7 @@ def run(sc, args, stop: StopFlag) -> int:
         with ZenohBus.open(bus_config_from_args(args)) as bus:
             bus.declare_alive(keys.alive(args.team, "sim"))
             sensor_key = keys.key(args.team, uav_id, "sensor")
+            frame_key = keys.key(args.team, uav_id, "frame")
             truth_key = keys.key(args.team, "sim", "truth")
             log.info("scenario %s seed %d for %.0f s: %d UGVs, UAV at %.0f m", sc.name, seed, duration,
                      sc.ugvs.count, sc.uav.altitude_agl_m)
@@ -151,17 +162,23 @@ def run(sc, args, stop: StopFlag) -> int:
                     frame_seq += 1
                     with lock:
                         pose = world.camera_pose()
-                        sf = world.sense(pose, now_unix)
+                        if renderer is not None:
+                            img = renderer.render(pose)
+                        else:
+                            sf = world.sense(pose, now_unix)
                         truth = world.truth_crowds()
                         ugv_p = world.ugv_p.copy()
                     ulat, ulon = world.frame.ground_to_wgs84(pose.east_m, pose.north_m)
                     uav_ap.send_position(now_unix, float(ulat), float(ulon), pose.up_m + g,
                                          sc.uav.altitude_agl_m, 0.0, 0.0, 0.0, 0.5)
-                    bus.publish(sensor_key, Detections(
-                        uav_id, now_unix, frame_seq, sc.camera.width_px, sc.camera.height_px, sc.uav.altitude_agl_m,
-                        tuple(Landmark(c, float(x), float(y)) for c, (x, y) in sf.landmarks.items()),
-                        tuple(Blob(float(c[0]), float(c[1]), *map(float, b), ugv=u)
-                              for c, b, u in zip(sf.blob_xy_px, sf.blob_xyxy_px, sf.blob_colour))))
+                    if renderer is not None:
+                        bus.publish(frame_key, encode_frame(uav_id, now_unix, frame_seq, img, args.frame_jpeg))
+                    else:
+                        bus.publish(sensor_key, Detections(
+                            uav_id, now_unix, frame_seq, sc.camera.width_px, sc.camera.height_px, sc.uav.altitude_agl_m,
+                            tuple(Landmark(c, float(x), float(y)) for c, (x, y) in sf.landmarks.items()),
+                            tuple(Blob(float(c[0]), float(c[1]), *map(float, b), ugv=u)
+                                  for c, b, u in zip(sf.blob_xy_px, sf.blob_xyxy_px, sf.blob_colour))))
                     tl = [world.frame.ground_to_wgs84(c[0], c[1]) for c, _ in truth]
                     ul = world.frame.ground_to_wgs84(ugv_p[:, 0], ugv_p[:, 1])
                     bus.publish(truth_key, Truth(

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import argparse
 import math
+import multiprocessing
+import os
 import sys
 import time
 from collections import deque
@@ -21,10 +23,12 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from uvteam.camera import PinholeCamera
 from uvteam.homography import FitQuality
 from uvteam.localizer import FrameObservation, LocalizerConfig, LocalizerState, UgvTrack, localize_step
 from uvteam.planning import plan_stations
 from uvteam.tracking import CrowdTracker
+from uvteam.vision.uav import sigma_px
 
 from .scenario import Scenario, load_scenario
 from .world import SENSOR_NOISE_PX, SimWorld
@@ -34,6 +38,7 @@ __all__ = ["RunResult", "run_scenario_seed", "summarize", "main", "TEAM_DEFAULTS
 TRACKING_INTERVAL_S = 1.0
 CONFIRM_HITS = 3            # a crowd is published once its track has been seen this many times
 SCORE_GATE_M = 10.0
+CROWD_STALE_S = 5.0         # as the UGV service: an older crowd estimate is not planned around
 T0 = 1_700_000_000.0        # simulated UNIX epoch of every run's start
 TEAM_DEFAULTS = {"gate_px": 25.0}
 
@@ -57,11 +62,21 @@ def _ugv_ids(sc: Scenario) -> list[str]:
     return [f"ugv{i + 1}" for i in range(sc.ugvs.count)]
 
 
-def localizer_config(sc: Scenario, frame, image_coordinates: str | None = None) -> LocalizerConfig:
+def detector_sigmas_px(sc: Scenario, detector: str, image_coordinates: str) -> tuple[float, float]:
+    """(landmark, target) 1-sigma pixel noise the localizer assumes for this detector."""
+    if detector == "pixels":
+        f = PinholeCamera(sc.camera.width_px, sc.camera.height_px, sc.camera.hfov_deg).focal_px
+        lm = "ugv_blob" if image_coordinates == "motion" else "colour"
+        return sigma_px(lm, sc.uav.altitude_agl_m, f), sigma_px("crowd_blob", sc.uav.altitude_agl_m, f)
+    return SENSOR_NOISE_PX["ugv_blob" if image_coordinates == "motion" else "colour"], SENSOR_NOISE_PX["crowd_blob"]
+
+
+def localizer_config(sc: Scenario, frame, image_coordinates: str | None = None, detector: str = "sensor") -> LocalizerConfig:
+    ic = image_coordinates or sc.landmarks.image_coordinates
+    s_lm, s_tg = detector_sigmas_px(sc, detector, ic)
     return LocalizerConfig(
         frame=frame, gate_px=TEAM_DEFAULTS["gate_px"], tracking_interval_s=TRACKING_INTERVAL_S,
-        image_coordinates=image_coordinates or sc.landmarks.image_coordinates,
-        sigma_landmark_px=SENSOR_NOISE_PX["ugv_blob"], sigma_target_px=SENSOR_NOISE_PX["crowd_blob"],
+        image_coordinates=ic, sigma_landmark_px=s_lm, sigma_target_px=s_tg,
         fix_extrapolate_s=max(0.3, 1.5 / sc.gnss.fix_rate_hz + sc.gnss.latency_s))
 
 
@@ -69,7 +84,7 @@ def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinat
     """One seed of one scenario. ``detector(world, pose, stamp_s) -> SensorFrame`` (default: the
     sensor model) lets the vision pipeline replace the sensor model."""
     world = SimWorld(sc, seed)
-    cfg = localizer_config(sc, world.frame, image_coordinates)
+    cfg = localizer_config(sc, world.frame, image_coordinates, getattr(detector, "kind", "sensor"))
     ids = _ugv_ids(sc)
     colour_to_id = dict(zip(sc.ugvs.colors, ids))
     lost_at = {int(i): float(t) for i, t in sc.events.lose_ugv}
@@ -84,7 +99,8 @@ def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinat
     substeps = 4
     next_fix = 0.0
     next_plan = 0.0
-    crowd_est: tuple[np.ndarray, np.ndarray] | None = None
+    crowd_est: tuple[np.ndarray, np.ndarray, float] | None = None
+    last_uav: tuple[np.ndarray, float] | None = None
     fw, fh = world.camera.footprint_m(sc.uav.altitude_agl_m)
     sense = detector or (lambda w, pose, stamp: w.sense(pose, stamp))
     for f in range(n_frames + 1):
@@ -109,7 +125,14 @@ def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinat
         if t >= next_plan - 1e-9:
             known = {ids[i]: fixes[ids[i]][-1][1] for i in alive if fixes[ids[i]]}
             if known:
-                centre, vel = crowd_est if crowd_est is not None else (np.mean(list(known.values()), 0), np.zeros(2))
+                # as the UGV service: the published crowd, else the point under the UAV (its fix)
+                uav_en = world.uav_p + world.wobble
+                uav_v = (uav_en - last_uav[0]) / max(t - last_uav[1], 1e-6) if last_uav is not None else np.zeros(2)
+                last_uav = (uav_en.copy(), t)
+                if crowd_est is not None and t - crowd_est[2] < CROWD_STALE_S:
+                    centre, vel = crowd_est[0] + crowd_est[1] * (t - crowd_est[2]), crowd_est[1]
+                else:
+                    centre, vel = uav_en, uav_v
                 sp = plan_stations(centre, vel, known, T0 + t, radius_m=sc.ugvs.station_radius_m,
                                    view_half_m=(fw / 2, fh / 2), horizon_s=3 * TRACKING_INTERVAL_S,
                                    step_s=TRACKING_INTERVAL_S, max_speed_m_s=sc.ugvs.approach_speed_m_s)
@@ -142,7 +165,7 @@ def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinat
         if confirmed:
             best = min(confirmed, key=lambda ct: ct[1].track_id)
             crowd_est = (np.array([best[0].east_m, best[0].north_m]),
-                         np.array([best[1].v_east_m_s, best[1].v_north_m_s]))
+                         np.array([best[1].v_east_m_s, best[1].v_north_m_s]), t)
         # scoring
         truth = world.truth_crowds()
         res.frames += 1
@@ -191,8 +214,23 @@ def summarize(results: list[RunResult]) -> dict:
     }
 
 
+def _run_job(job: tuple[str, str, int, str]) -> RunResult:
+    path, _name, seed, detector = job
+    import cv2  # noqa: PLC0415
+
+    cv2.setNumThreads(1)  # one core per run: the runs themselves are the parallelism
+    det = None
+    if detector == "pixels":
+        from .pixels import pixel_detector  # noqa: PLC0415
+
+        det = pixel_detector()
+    return run_scenario_seed(load_scenario(path), seed, detector=det)
+
+
 def _progress(done: int, total: int, label: str) -> None:
     if not sys.stderr.isatty():
+        if done:
+            print(f"[{done}/{total}] {label}", file=sys.stderr, flush=True)
         return
     w = 30
     k = int(w * done / max(total, 1))
@@ -221,35 +259,39 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--detector", choices=["sensor", "pixels"], default="sensor",
                     help="sensor: the simulator's sensor model; pixels: rendered frames through the vision pipeline")
     ap.add_argument("--out", default="out/experiment", help="folder for the Markdown table and PNG plots")
+    ap.add_argument("--jobs", type=int, default=max(1, (os.cpu_count() or 1)),
+                    help="runs in parallel, one process each (default: one per core)")
     args = ap.parse_args(argv)
-    detector = None
-    if args.detector == "pixels":
-        try:
-            from .pixels import pixel_detector  # noqa: PLC0415
-        except ImportError:
-            print("uvteam experiment: the pixel pipeline is not available in this build", file=sys.stderr)
-            return 2
-        detector = pixel_detector()
     scenarios = [load_scenario(p) for p in args.scenarios]
-    jobs = [(sc, s) for sc in scenarios for s in (sc.run.seeds[: args.seeds] if args.seeds else sc.run.seeds)]
     per: dict[str, list[RunResult]] = {}
     t0 = time.perf_counter()
-    for k, (sc, seed) in enumerate(jobs):
-        _progress(k, len(jobs), f"{sc.name} seed {seed}")
-        per.setdefault(sc.name, []).append(run_scenario_seed(sc, seed, detector=detector))
-    _progress(len(jobs), len(jobs), "done")
+    work = [(str(p), sc.name, seed, args.detector) for p, sc in zip(args.scenarios, scenarios)
+            for seed in (sc.run.seeds[: args.seeds] if args.seeds else sc.run.seeds)]
+    _progress(0, len(work), "")
+    if args.jobs > 1:
+        with multiprocessing.get_context("spawn").Pool(args.jobs) as pool:
+            for k, res in enumerate(pool.imap_unordered(_run_job, work), start=1):
+                per.setdefault(res.scenario, []).append(res)
+                _progress(k, len(work), f"{res.scenario} seed {res.seed}")
+    else:
+        for k, job in enumerate(work, start=1):
+            res = _run_job(job)
+            per.setdefault(res.scenario, []).append(res)
+            _progress(k, len(work), f"{res.scenario} seed {res.seed}")
+    for v in per.values():
+        v.sort(key=lambda r: r.seed)
     rows = [(sc, f"{args.detector}, {sc.landmarks.image_coordinates} landmarks", summarize(per[sc.name])) for sc in scenarios]
     md = table_markdown(rows)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "results.md").write_text(md + "\n")
     print(md)
-    print(f"\n{len(jobs)} runs in {time.perf_counter() - t0:.1f} s; table in {out / 'results.md'}")
+    print(f"\n{len(work)} runs in {time.perf_counter() - t0:.1f} s; table in {out / 'results.md'}")
+    from .plots import write_plots  # noqa: PLC0415
+
     try:
-        from .plots import write_plots  # noqa: PLC0415
-    except ImportError:
-        pass
-    else:
-        for path in write_plots(per, scenarios, out):
+        for path in write_plots(per, scenarios, out, args.detector):
             print(f"plot: {path}")
+    except ImportError as exc:
+        print(f"no plots ({exc}); install the plots extra: pip install -e '.[plots]'", file=sys.stderr)
     return 0

@@ -23,6 +23,8 @@ KIND_GATE_PX = 30.0
 
 
 class PixelDetector:
+    kind = "pixels"
+
     def __init__(self, keep_frames: bool = False) -> None:
         self._world: SimWorld | None = None
         self.renderer: Renderer | None = None

@@ -78,10 +78,17 @@ class UgvService:
         if self.cfg.id not in fixes:
             return
         en = {v: np.array(self.frame.wgs84_to_ground(f.lat_deg, f.lon_deg), float) for v, f in fixes.items()}
+        with self._lock:
+            uav_fix = self.team_fix.get(u.uav)
         if crowd is not None and now_s - crowd[2] < 5.0:
             centre = crowd[0] + crowd[1] * (now_s - crowd[2])
             vel = crowd[1]
-        else:  # no crowd yet: keep the team together around its centroid
+        elif uav_fix is not None and now_s - uav_fix.stamp_s < 3.0:
+            # no crowd (yet, or lost): stations around the point under the UAV, so the team stays in
+            # its view, which is what lets the localizer find the crowd again
+            centre = np.array(self.frame.wgs84_to_ground(uav_fix.lat_deg, uav_fix.lon_deg), float)
+            vel = np.array([uav_fix.v_east_m_s, uav_fix.v_north_m_s], float)
+        else:  # nothing known: keep the team together around its centroid
             centre, vel = np.mean(list(en.values()), 0), np.zeros(2)
         view = (u.view_half_width_m, u.view_half_height_m) if u.view_half_width_m > 0 else None
         plans = plan_stations(centre, vel, en, now_s, radius_m=u.station_radius_m, view_half_m=view,

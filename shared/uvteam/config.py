@@ -37,8 +37,9 @@ class AutopilotConfig:
 class UavConfig:
     detector: str = "sim-sensor"           # "sim-sensor" | "pixels"
     colors: dict = field(default_factory=dict)   # colour name -> UGV id
-    camera: str = ""                       # frame source URL for "pixels" (device index, file, rtsp://, zenoh)
-    hfov_deg: float = 78.0
+    camera: str = "zenoh"                  # frames for "pixels": "zenoh" (the bus key .../frame), device:N, a file, rtsp://, gst:
+    hfov_deg: float = 78.0                 # the camera's horizontal field of view (no distortion)
+    label_side_m: float = 1.0              # side of the UGVs' square roof labels
 
 
 @dataclass(frozen=True)

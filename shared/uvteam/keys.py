@@ -1,6 +1,6 @@
 """Every zenoh key uvteam uses, built here and nowhere else.
 
-    uvteam/<team>/<vehicle>/<topic>          data: fix, plan, detections, people, crowds, status, truth
+    uvteam/<team>/<vehicle>/<topic>          data: fix, plan, detections, people, crowds, status, truth, sensor, frame
     uvteam/<team>/<vehicle>/alive            liveliness token of the vehicle's service
 
 Team and vehicle ids are 1-32 characters of [A-Za-z0-9_-], so no id can inject key-expression syntax.
@@ -14,7 +14,7 @@ from .errors import ConfigError
 
 __all__ = ["TOPICS", "check_id", "key", "all_vehicles", "alive", "alive_all", "vehicle_of", "topic_of"]
 
-TOPICS = ("fix", "plan", "detections", "people", "crowds", "status", "truth", "sensor")
+TOPICS = ("fix", "plan", "detections", "people", "crowds", "status", "truth", "sensor", "frame")
 ROOT = "uvteam"
 _ID = re.compile(r"^[A-Za-z0-9_-]{1,32}$")
 

@@ -22,13 +22,13 @@ import msgpack
 from .errors import MessageError
 
 __all__ = [
-    "Fix", "Waypoint", "Plan", "Landmark", "Blob", "Detections", "Person", "PeopleSeen", "Crowd",
+    "Fix", "Waypoint", "Plan", "Landmark", "Blob", "Detections", "Frame", "Person", "PeopleSeen", "Crowd",
     "Crowds", "TruthCrowd", "TruthUgv", "Truth", "Status", "encode", "decode", "MESSAGE_TYPES",
     "ENCODING",
 ]
 
 ENCODING = "application/msgpack"
-MAX_PAYLOAD_BYTES = 4 << 20
+MAX_PAYLOAD_BYTES = 8 << 20   # a raw 1920x1080 BGR frame is 6.2 MB
 
 
 @dataclass(frozen=True, slots=True)
@@ -100,6 +100,23 @@ class Detections:
     alt_agl_m: float
     landmarks: tuple[Landmark, ...]
     blobs: tuple[Blob, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Frame:
+    """One camera frame with its capture time. Key: uvteam/<team>/<vehicle>/frame.
+
+    ``encoding`` "jpeg" (``data`` is a JPEG file) or "bgr8" (``data`` is height x width x 3 bytes, row
+    major); decoding the pixels is :func:`uvteam.frames.frame_pixels`, which checks the size."""
+
+    SCHEMA: ClassVar[str] = "frame/1"
+    vehicle: str
+    stamp_s: float          # capture time, UNIX seconds
+    frame_seq: int
+    width_px: int
+    height_px: int
+    encoding: str
+    data: bytes
 
 
 @dataclass(frozen=True, slots=True)
@@ -191,7 +208,7 @@ class Status:
     note: str = ""                  # free text, e.g. "latency_p50_ms=3.1 latency_p99_ms=9.8"
 
 
-MESSAGE_TYPES = (Fix, Waypoint, Plan, Landmark, Blob, Detections, Person, PeopleSeen, Crowd, Crowds,
+MESSAGE_TYPES = (Fix, Waypoint, Plan, Landmark, Blob, Detections, Frame, Person, PeopleSeen, Crowd, Crowds,
                  TruthCrowd, TruthUgv, Truth, Status)
 T = TypeVar("T")
 
@@ -254,6 +271,10 @@ def _check_value(schema: str, name: str, tp: Any, v: Any) -> Any:
         if isinstance(v, bool) or not isinstance(v, int):
             raise MessageError(schema, name, f"expected an integer, got {type(v).__name__}")
         return v
+    if tp is bytes:
+        if not isinstance(v, (bytes, bytearray)):
+            raise MessageError(schema, name, f"expected bytes, got {type(v).__name__}")
+        return bytes(v)
     if tp is str:
         if not isinstance(v, str):
             raise MessageError(schema, name, f"expected a string, got {type(v).__name__}")
@@ -326,5 +347,5 @@ __all__ += ["as_dict"]
 
 # which message each topic carries (keys.TOPICS)
 BY_TOPIC = {"fix": Fix, "plan": Plan, "detections": Detections, "sensor": Detections, "people": PeopleSeen,
-            "crowds": Crowds, "status": Status, "truth": Truth}
+            "crowds": Crowds, "status": Status, "truth": Truth, "frame": Frame}
 __all__ += ["BY_TOPIC"]

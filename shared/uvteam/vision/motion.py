@@ -9,7 +9,9 @@ Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale``
 3. absolute difference, threshold, restricted to pixels both frames see;
 4. a motion history: the pixels that moved in the last ``history_s`` seconds, warped along with the
    camera so it stays registered, so that a crowd whose members move little per frame stays one blob;
-5. morphology: an opening removes speckle, a square closing of about one crowd spacing joins members
+5. morphology: speckle removed by opening each frame's mask (``speckle="open"``), or, for small or slow
+   targets whose one-pixel crescents an opening would erase, by requiring two moving neighbours per
+   pixel and opening the history instead (``"neighbours"``); a square closing of about one crowd spacing joins members
    into one blob; connected components with areas between the altitude-derived bounds (a person's footprint to
    the largest crowd) are the blobs; their centres are the centroids of this frame's moving pixels
    (not of the whole history, whose centroid trails a moving crowd).
@@ -47,8 +49,11 @@ class MotionConfig:
     min_area_px: float = 12.0          # full-resolution pixels
     max_area_px: float = 60_000.0
     border_px: int = 6                 # ignore this margin of the warped frame
+    speckle: str = "open"              # "open": open each frame's mask; "neighbours": see update()
 
     def __post_init__(self) -> None:
+        if self.speckle not in ("open", "neighbours"):
+            raise ValueError(f"speckle must be 'open' or 'neighbours', got {self.speckle!r}")
         if self.model not in ("homography", "affine"):
             raise ValueError(f"model must be 'homography' or 'affine', got {self.model!r}")
         if not 0.05 <= self.process_scale <= 1.0:
@@ -158,17 +163,26 @@ class MotionDetector:
         diff = cv2.absdiff(curr, warped)
         _, moving = cv2.threshold(diff, cfg.diff_threshold, 255, cv2.THRESH_BINARY)
         moving &= valid
+        if cfg.speckle == "open":
+            moving = cv2.morphologyEx(moving, cv2.MORPH_OPEN, self._k_open)
+        else:
+            # "neighbours": a moving pixel needs two moving neighbours; unlike an opening this keeps the
+            # one-pixel crescents of a slow walker, which add up in the history and are opened there
+            nb = cv2.boxFilter(moving, cv2.CV_16U, (3, 3), normalize=False)
+            moving[nb < 3 * 255] = 0
         b = cfg.border_px  # the frame's own edge too: lens edge, and where a renderer or ISP extrapolates
         moving[:b] = 0
         moving[-b:] = 0
         moving[:, :b] = 0
         moving[:, -b:] = 0
-        moving = cv2.morphologyEx(moving, cv2.MORPH_OPEN, self._k_open)
         # motion history, kept registered with the camera
         mhi = cv2.warpPerspective(self._mhi, M, (w, h), flags=cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT)
         mhi[moving > 0] = np.float32(stamp_s % 100_000.0)
         t_rel = np.float32(stamp_s % 100_000.0)
         recent = ((mhi > 0) & (t_rel - mhi <= cfg.history_s) & (t_rel - mhi >= 0)).astype(np.uint8) * 255
+        if cfg.speckle == "neighbours":
+            recent = cv2.morphologyEx(recent, cv2.MORPH_OPEN, self._k_open)
+            moving &= recent
         self._mhi = mhi
         joined = cv2.morphologyEx(recent, cv2.MORPH_CLOSE, self._k_close)
         n, labels, stats, cents = cv2.connectedComponentsWithStats(joined, connectivity=8)
