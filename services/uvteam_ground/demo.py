@@ -57,7 +57,8 @@ class Team:
     """Configs and processes of one loopback team."""
 
     def __init__(self, scenario_path: str, *, team: str = "demo", seed: int | None = None,
-                 duration_s: float | None = None, workdir: str | None = None, log_level: str = "INFO") -> None:
+                 duration_s: float | None = None, workdir: str | None = None, log_level: str = "INFO",
+                 frames: str = "pixels") -> None:
         from uvteam_sim.scenario import load_scenario  # noqa: PLC0415
 
         self.sc = load_scenario(scenario_path)
@@ -73,6 +74,9 @@ class Team:
         self.sysid = {self.uav: 1, **{u: 11 + i for i, u in enumerate(self.ugvs)}}
         self.procs: dict[str, subprocess.Popen] = {}
         self.log_level = log_level
+        if frames not in ("pixels", "sensor"):
+            raise ValueError(f"frames must be 'pixels' or 'sensor', got {frames!r}")
+        self.frames = frames
         self.expected_exit: set[str] = set()
         self._write_configs()
 
@@ -88,7 +92,8 @@ class Team:
         (self.dir / "uav1.toml").write_text(
             f'[vehicle]\nteam = "{self.team}"\nid = "{self.uav}"\nrole = "uav"\n\n{self._bus()}\n'
             f'[autopilot]\nurl = "udpin:127.0.0.1:{self.ports[self.uav]}"\nsystem_id = {self.sysid[self.uav]}\n\n'
-            f'[uav]\ndetector = "sim-sensor"\ncolors = {{ {colors} }}\n')
+            f'[uav]\ndetector = "{"pixels" if self.frames == "pixels" else "sim-sensor"}"\ncamera = "zenoh"\n'
+            f'hfov_deg = {sc.camera.hfov_deg}\nlabel_side_m = {sc.ugvs.label_side_m}\ncolors = {{ {colors} }}\n')
         ugv_list = ", ".join(f'"{u}"' for u in self.ugvs)
         for u in self.ugvs:
             (self.dir / f"{u}.toml").write_text(
@@ -97,13 +102,14 @@ class Team:
                 f'[ugv]\nuav = "{self.uav}"\nteam_ugvs = [{ugv_list}]\nstation_radius_m = {sc.ugvs.station_radius_m}\n'
                 f'max_speed_m_s = {sc.ugvs.approach_speed_m_s}\nview_half_width_m = {fw / 2:.2f}\n'
                 f'view_half_height_m = {fh / 2:.2f}\n')
-        from uvteam_sim.world import SENSOR_NOISE_PX  # noqa: PLC0415
+        from uvteam_sim.experiment import detector_sigmas_px  # noqa: PLC0415
 
+        s_lm, s_tg = detector_sigmas_px(sc, self.frames, sc.landmarks.image_coordinates)
         (self.dir / "localizer.toml").write_text(
             f'[vehicle]\nteam = "{self.team}"\nid = "loc1"\nrole = "localizer"\n\n{self._bus()}\n'
             f'[localizer]\nuav = "{self.uav}"\nugvs = [{ugv_list}]\norigin_lat_deg = {sc.world.origin_lat_deg}\n'
             f'origin_lon_deg = {sc.world.origin_lon_deg}\nimage_coordinates = "{sc.landmarks.image_coordinates}"\n'
-            f'sigma_landmark_px = {SENSOR_NOISE_PX["ugv_blob"]}\nsigma_target_px = {SENSOR_NOISE_PX["crowd_blob"]}\n')
+            f'sigma_landmark_px = {s_lm:.3f}\nsigma_target_px = {s_tg:.3f}\n')
 
     def _spawn(self, name: str, args: list[str]) -> None:
         log = open(self.dir / "logs" / f"{name}.log", "wb")
@@ -123,7 +129,8 @@ class Team:
     def start_sim(self) -> None:
         args = ["sim", "--scenario", self.scenario_path, "--team", self.team, "--mode", "client",
                 "--connect", self.endpoint, "--duration", str(self.duration_s),
-                "--uav", f"{self.uav}:{self.ports[self.uav]}:{self.sysid[self.uav]}", "--log-level", self.log_level]
+                "--uav", f"{self.uav}:{self.ports[self.uav]}:{self.sysid[self.uav]}", "--log-level", self.log_level,
+                "--frames", self.frames]
         if self.seed is not None:
             args += ["--seed", str(self.seed)]
         for u in self.ugvs:
@@ -252,6 +259,7 @@ class Observer:
             "recall_after_1s": matched_after / self.truth_frames if self.truth_frames else math.nan,
             "false_crowds": self.false_crowds,
             "ugv_notes": lat,
+            "notes": {v: s.note for v, s in self.status.items()},
             "localizer_note": loc,
             "rejected": rejected,
         }
@@ -319,11 +327,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=None)
     ap.add_argument("--duration", type=float, default=None, help="seconds (default: the scenario's)")
     ap.add_argument("--quiet", action="store_true", help="no live view, only the summary")
+    ap.add_argument("--frames", choices=["pixels", "sensor"], default="pixels",
+                    help="pixels: the simulator renders camera frames and the UAV service detects on them "
+                         "(default); sensor: the simulator's sensor model replaces the UAV's vision")
     ap.add_argument("--json", metavar="FILE", help="also write the summary as JSON")
     ap.add_argument("--workdir", help="where configs and logs go (default: a new temporary folder)")
     args = ap.parse_args(argv)
     stop = StopFlag()
-    team = Team(args.scenario, seed=args.seed, duration_s=args.duration, workdir=args.workdir)
+    team = Team(args.scenario, seed=args.seed, duration_s=args.duration, workdir=args.workdir, frames=args.frames)
     print(f"uvteam demo: {team.sc.name}, {len(team.ugvs)} UGVs, {team.duration_s:.0f} s; router {team.endpoint}; "
           f"configs and logs in {team.dir}", flush=True)
     print(f"  watch from another terminal: uvteam tap --summary --team {team.team} --connect {team.endpoint}", flush=True)
@@ -333,6 +344,9 @@ def main(argv: list[str] | None = None) -> int:
           f"p95 {summary['p95_m']:.3f} m, max {summary['max_m']:.3f} m")
     print(f"  recall after 1 s {summary['recall_after_1s']:.3f}, false crowds {summary['false_crowds']}, "
           f"inside the reported 95% radius {summary['in_radius95']:.3f}")
+    uav_note = summary["notes"].get(team.uav, "")
+    if uav_note:
+        print(f"  {team.uav}: {uav_note}")
     for v, note in sorted(summary["ugv_notes"].items()):
         print(f"  {v}: {note}")
     print(f"  rejected messages: {summary['rejected']}")

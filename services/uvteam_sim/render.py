@@ -4,9 +4,9 @@ What a frame holds, and how it is made (every number here is a modelling choice,
 
 - **Ground**: a desert texture generated once per run from the seed, in ground metres (north up),
   with one texel per nadir image pixel so sampling neither aliases nor blurs: four octaves of value
-  noise (40, 10, 3 and 0.8 m) in sand colours, plus shrubs (dark olive discs, 0.3-1.2 m) and pale
-  rocks, which give goodFeaturesToTrack its corners. Saturation stays under 100 (OpenCV scale), below
-  every roof-label range, so the ground never looks like a landmark.
+  noise (40, 10, 3 and 0.8 m) in sand colours, plus shrubs (dusty grey-olive discs, 0.3-1.2 m) and
+  pale rocks, which give goodFeaturesToTrack its corners. Saturation stays under 100 (OpenCV scale),
+  below every roof-label range even with the sensor noise, so the ground never looks like a landmark.
 - **Projection**: every image pixel is cast as a ray from the camera pose (altitude, hover wobble,
   gimbal roll/pitch) onto the terrain (``SimWorld.terrain_up_m``; three fixed-point steps, exact on a
   flat plane); this is done on a grid every 8 pixels and interpolated bilinearly (the terrain is
@@ -72,14 +72,14 @@ def make_ground_texture(rng: np.random.Generator, size_px: tuple[int, int], texe
     tex = sand_dark + a * (sand_light - sand_dark)
     tex = np.clip(tex, 0, 255).astype(np.uint8)
     area_m2 = h * w * texel_m * texel_m
-    # shrubs: dark olive discs; rocks: pale grey discs
-    for count, r_lo, r_hi, colour_lo, colour_hi in (
-            (int(area_m2 * 0.012), 0.3, 1.2, (40, 62, 60), (62, 88, 84)),
-            (int(area_m2 * 0.006), 0.15, 0.5, (170, 180, 185), (200, 208, 212))):
+    # shrubs: dusty olive discs (desert scrub is grey-green: saturation ~0.15); rocks: pale grey discs
+    for count, r_lo, r_hi, l_lo, l_hi, tint in (
+            (int(area_m2 * 0.012), 0.3, 1.2, 55.0, 95.0, (0.84, 1.0, 0.95)),
+            (int(area_m2 * 0.006), 0.15, 0.5, 175.0, 210.0, (0.97, 0.99, 1.0))):
         cx = rng.uniform(0, w, count)
         cy = rng.uniform(0, h, count)
         r = rng.uniform(r_lo, r_hi, count) / texel_m
-        col = rng.uniform(colour_lo, colour_hi, (count, 3))
+        col = np.outer(rng.uniform(l_lo, l_hi, count), tint)
         for x, y, rr, c in zip(cx, cy, r, col):
             cv2.circle(tex, (int(x * _ONE), int(y * _ONE)), max(int(rr * _ONE), _ONE // 2),
                        tuple(float(v) for v in c), -1, cv2.LINE_AA, _SHIFT)

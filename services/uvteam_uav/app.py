@@ -170,4 +170,6 @@ def run(cfg: VehicleConfig, stop: StopFlag) -> int:
                 t.join(timeout=2.0)
             if source is not None:
                 source.close()
+            log.info("UAV %s stopping: %s dropped=%d", cfg.id, " ".join(f"{k}={v}" for k, v in counts.items()),
+                     slot.dropped)
     return 0

@@ -141,3 +141,37 @@ def test_empty_frame():
 def test_bad_config(kw):
     with pytest.raises(ValueError):
         cfg(**kw)
+
+
+def test_a_blob_labelled_as_a_ugv_is_that_ugv_even_beyond_the_gate():
+    # the detector saw red's roof label inside a blob whose centre is 40 px off (a long trail): it is
+    # red's blob and never a crowd; without the label the same blob would be reported as a crowd
+    names = list(UGVS)
+    tracks = {u: track_at(en) for u, en in UGVS.items()}
+    obs = observation(1.0)
+    blobs = obs.blob_xy_px.copy()
+    blobs[0] += (40.0, 0.0)
+    boxes = np.column_stack([blobs - 15, blobs + 15])
+    labelled = FrameObservation(1.0, obs.landmarks_px, blobs, boxes, ("red",) + ("",) * (len(blobs) - 1))
+    _, out = localize_step(LocalizerState(), labelled, tracks, cfg(image_coordinates="color"))
+    assert out.blob_of_ugv["red"] == 0
+    assert [c.blob_index for c in out.crowds] == [len(names)]
+    _, out = localize_step(LocalizerState(), FrameObservation(1.0, obs.landmarks_px, blobs, boxes), tracks,
+                           cfg(image_coordinates="color"))
+    assert 0 in [c.blob_index for c in out.crowds]
+
+
+def test_a_ugv_seen_by_colour_does_not_swallow_a_crowd_whose_box_holds_it():
+    # a UGV driving through a crowd: the detector carved it out, so the crowd's box holds the UGV's
+    # position; the UGV was seen (colour + its own blob), so the crowd's blob is still a crowd
+    ugvs = dict(UGVS)
+    ugvs["red"] = (2.5, 3.0)          # beside the crowd's centre (2, 3)
+    tracks = {u: track_at(en) for u, en in ugvs.items()}
+    obs = observation(1.0, ugvs=ugvs)
+    boxes = obs.blob_xyxy_px.copy()
+    boxes[-1] = np.r_[obs.blob_xy_px[-1] - 60, obs.blob_xy_px[-1] + 60]   # the crowd's box is wide
+    blobs = obs.blob_xy_px.copy()
+    blobs[-1] += (-30.0, 0.0)         # its centre 30 px from red's (beyond the 25 px gate)
+    labelled = FrameObservation(1.0, obs.landmarks_px, blobs, boxes, ("red",) + ("",) * (len(blobs) - 1))
+    _, out = localize_step(LocalizerState(), labelled, tracks, cfg())
+    assert [c.blob_index for c in out.crowds] == [len(blobs) - 1]

@@ -118,3 +118,27 @@ def test_colour_landmarks_on_a_rendered_roof():
     with pytest.raises(KeyError):
         detect_landmarks(img, LandmarkConfig(), wanted=("purple",))
     assert set(DEFAULT_COLOURS) == set(cols)
+
+
+def test_a_vehicle_driving_through_a_crowd_is_carved_out_and_labelled():
+    # a static camera over texture; a crowd of nine dark walkers moving right and a vehicle crossing
+    # them downwards. Without carving they make one blob; with the vehicle's colour point carved out,
+    # the crowd stays one blob (labelled -1) and the vehicle is its own blob (labelled 0).
+    ground = texture(720, 1280, seed=4)
+    walkers = np.array([[600 + 30 * i, 330 + 30 * j] for i in range(3) for j in range(3)], float)
+    cfg = MotionConfig(merge_px=31, min_area_px=400.0, speckle="neighbours")
+    plain, carved = MotionDetector(cfg), MotionDetector(cfg)
+    for k in range(6):
+        img = ground.copy()
+        for x, y in walkers + (4.0 * k, 0.0):
+            cv2.circle(img, (int(x), int(y)), 6, (20, 20, 20), -1)
+        vx, vy = 660 + 2 * k, 300 + 12 * k            # the vehicle, crossing the crowd
+        cv2.rectangle(img, (vx - 12, vy - 8), (vx + 12, vy + 8), (60, 60, 60), -1)
+        a = plain.update(img, 0.1 * k)
+        b = carved.update(img, 0.1 * k, np.array([[vx, vy]], float), 22.0)
+    assert len(a) == 1 and list(a.carved) == [-1]
+    assert sorted(b.carved.tolist()) == [-1, 0]
+    crowd = b.xy_px[b.carved == -1][0]
+    vehicle = b.xy_px[b.carved == 0][0]
+    assert np.hypot(*(vehicle - (vx, vy))) < 10
+    assert np.hypot(*(crowd - (walkers.mean(0) + (4.0 * 5, 0.0)))) < 12

@@ -20,7 +20,7 @@ import numpy as np
 from .landmarks import LandmarkConfig, detect_landmarks
 from .motion import MotionBlobs, MotionConfig, MotionDetector, bounds_for_altitude
 
-__all__ = ["UavVisionConfig", "UavVision", "UavFrameResult", "PIXEL_SIGMA_M", "sigma_px"]
+__all__ = ["UavVisionConfig", "UavVision", "UavFrameResult", "landmark_config", "PIXEL_SIGMA_M", "sigma_px"]
 
 # 1-sigma position error per axis, in ground metres, of what this pipeline reports, measured on rendered
 # frames against the true positions (paper-fig7-alt50, seed 1: colour centres 0.02 m; a UGV's motion-blob
@@ -63,6 +63,13 @@ class UavFrameResult:
     blob_colour: tuple[str, ...]                      # per blob: the colour of the UGV it is, or ""
 
 
+def landmark_config(cfg: UavVisionConfig, alt_agl_m: float) -> LandmarkConfig:
+    """Colour-blob area bounds for a roof label of ``label_side_m`` seen from this altitude: a quarter to
+    four times its area, so a walker in a shirt of a label's colour (a tenth of it) is not a landmark."""
+    label_px2 = (cfg.label_side_m * cfg.focal_px / alt_agl_m) ** 2
+    return replace(cfg.landmarks, min_area_px=max(3.0, 0.25 * label_px2), max_area_px=4.0 * label_px2 + 25.0)
+
+
 class UavVision:
     def __init__(self, cfg: UavVisionConfig) -> None:
         self.cfg = cfg
@@ -78,8 +85,7 @@ class UavVision:
                                  crowd_max_m=cfg.crowd_max_m, base=base)
         mc = replace(mc, min_area_px=max(mc.min_area_px, cfg.min_crowd_m2 * (cfg.focal_px / alt_agl_m) ** 2))
         self._motion = MotionDetector(mc)
-        label_px2 = (cfg.label_side_m * cfg.focal_px / alt_agl_m) ** 2
-        self._lm_cfg = replace(cfg.landmarks, min_area_px=max(3.0, 0.25 * label_px2), max_area_px=4.0 * label_px2 + 25.0)
+        self._lm_cfg = landmark_config(cfg, alt_agl_m)
         self._alt_m = alt_agl_m
 
     @property

@@ -1,0 +1,105 @@
+"""The simulator's renderer and the UAV pixel pipeline on its frames.
+
+The renderer is checked against the camera model (every pixel's ground point projects back onto that
+pixel, with terrain relief and gimbal jitter), the colour detector against the projected roof labels,
+and the whole pipeline (render -> motion + colour -> localizer) on a short stretch of a paper scenario.
+"""
+
+from dataclasses import replace
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from uvteam.camera import project
+from uvteam.vision.landmarks import LandmarkConfig, detect_landmarks
+from uvteam.vision.uav import UavVisionConfig, landmark_config
+from uvteam_sim.experiment import run_scenario_seed, summarize
+from uvteam_sim.pixels import pixel_detector
+from uvteam_sim.render import LABEL_BGR, Renderer
+from uvteam_sim.scenario import load_scenario
+from uvteam_sim.world import SimWorld
+
+SCENARIOS = Path(__file__).resolve().parents[3] / "shared" / "scenarios"
+pytestmark = pytest.mark.skipif(not SCENARIOS.is_dir(), reason="../shared/scenarios not present")
+
+
+def _world(name: str, seed: int = 3) -> SimWorld:
+    return SimWorld(load_scenario(SCENARIOS / f"{name}.toml"), seed)
+
+
+def test_every_pixel_samples_the_ground_point_that_projects_onto_it():
+    # field scenario: 3 m terrain relief and 0.5 deg gimbal jitter, so neither flat nor nadir
+    w = _world("field-alt100-lm6")
+    r = Renderer(w, np.random.default_rng(1))
+    pose = w.camera_pose()
+    assert abs(pose.roll_deg) + abs(pose.pitch_deg) > 0
+    mx, my = r.ground_maps(pose)
+    rng = np.random.default_rng(0)
+    px = np.vstack([np.column_stack([rng.integers(0, 1280, 300), rng.integers(0, 720, 300)]),
+                    [[0, 0], [1279, 0], [0, 719], [1279, 719]]])           # the corners too
+    e = r.west_m + (mx[px[:, 1], px[:, 0]] + 0.5) * r.texel_m
+    n = r.north_top_m - (my[px[:, 1], px[:, 0]] + 0.5) * r.texel_m
+    back = project(w.camera, pose, np.column_stack([e, n, w.terrain_up_m(np.column_stack([e, n]))]))
+    assert np.abs(back - px).max() < 0.05   # measured 0.003 px
+
+
+@pytest.mark.parametrize("name", ["paper-fig7-alt200", "paper-fig7-alt50", "field-alt100-lm6"])
+def test_roof_labels_found_where_they_are(name):
+    w = _world(name)
+    for i in range(w.sc.ugvs.count):   # spread the UGVs over the view
+        a = 2 * np.pi * i / w.sc.ugvs.count
+        w.ugv_p[i] = w.crowd_c[0] + 0.3 * np.array(w.camera.footprint_m(w.sc.uav.altitude_agl_m)) * [np.cos(a), np.sin(a)]
+    r = Renderer(w, np.random.default_rng(2))
+    pose = w.camera_pose()
+    img = r.render(pose)
+    truth = project(w.camera, pose, w.ugv_label_enu())
+    found = detect_landmarks(img, LandmarkConfig(), tuple(w.sc.ugvs.colors))
+    assert set(found) == set(w.sc.ugvs.colors)
+    px_per_m = w.camera.focal_px / w.sc.uav.altitude_agl_m
+    for i, c in enumerate(w.sc.ugvs.colors):
+        assert np.hypot(*(np.array(found[c]) - truth[i])) < max(0.5, 0.1 * px_per_m), c   # < 10 cm
+
+
+@pytest.mark.parametrize("name", ["paper-fig7-alt200", "paper-fig7-alt50", "field-alt100-lm6"])
+def test_ground_and_walkers_never_look_like_a_roof_label(name):
+    # walkers wear any colour, green or magenta shirts included: the label's size keeps them out
+    w = _world(name)
+    w.ugv_p[:] = 1e4   # out of view
+    r = Renderer(w, np.random.default_rng(5))
+    cfg = landmark_config(UavVisionConfig(w.camera.focal_px, tuple(LABEL_BGR)), w.sc.uav.altitude_agl_m)
+    for _ in range(5):
+        assert detect_landmarks(r.render(w.camera_pose()), cfg, tuple(LABEL_BGR)) == {}
+        w.step(0.5)
+
+
+def test_frames_are_seeded():
+    a = Renderer(_world("paper-fig7-alt200"), np.random.default_rng(7))
+    b = Renderer(_world("paper-fig7-alt200"), np.random.default_rng(7))
+    pose = a.world.camera_pose()
+    assert np.array_equal(a.render(pose), b.render(pose))
+
+
+@pytest.mark.parametrize("name, max_mean_m", [("paper-fig7-alt200", 1.5), ("paper-fig7-alt50", 1.0)])
+def test_pixel_pipeline_localizes_the_crowd(name, max_mean_m):
+    # 10 s of the scenario, one seed: rendered frames -> motion + colour detection -> localizer
+    sc = load_scenario(SCENARIOS / f"{name}.toml")
+    sc = replace(sc, run=replace(sc.run, duration_s=10.0))
+    s = summarize([run_scenario_seed(sc, 2, detector=pixel_detector())])
+    assert s["mean_m"] <= max_mean_m, s
+    assert s["recall"] >= 0.9, s
+    assert s["ugv_as_crowd"] == 0 and s["false_crowds"] <= 3, s
+
+
+def test_renderer_keeps_up_with_the_frame_rate():
+    # a benchmark lives in `uvteam bench`; this only guards against an order-of-magnitude regression
+    w = _world("field-alt100-lm6")
+    r = Renderer(w, np.random.default_rng(1))
+    cv2.setNumThreads(1)
+    import time
+    r.render(w.camera_pose())
+    t0 = time.perf_counter()
+    for _ in range(5):
+        r.render(w.camera_pose())
+    assert (time.perf_counter() - t0) / 5 < 1.0 / w.sc.run.frame_rate_hz
