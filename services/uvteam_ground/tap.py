@@ -40,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
     stop = StopFlag()
     lock = threading.Lock()
     stats = {"n": 0, "bad": 0}
-    seen = defaultdict(lambda: {"n": 0, "last": 0.0, "times": deque(maxlen=50)})
+    seen = defaultdict(lambda: {"n": 0, "last": 0.0, "first": time.time(), "times": deque(maxlen=100)})
     alive: dict[str, bool] = {}
     last_msg: dict[str, object] = {}
     cfg = BusConfig(config_file=args.zenoh_config, mode=args.mode or "client" if args.connect else args.mode,
@@ -98,7 +98,9 @@ def _draw(seen, alive, last_msg, stats, lock) -> None:
         for v in vehicles:
             fix = last_msg.get(next((k for k in seen if keys.vehicle_of(k) == v and k.endswith("/fix")), ""), None)
             st = last_msg.get(next((k for k in seen if keys.vehicle_of(k) == v and k.endswith("/status")), ""), None)
-            rate = sum(len([t for t in s["times"] if now - t < 5]) / 5.0 for k, s in seen.items() if keys.vehicle_of(k) == v)
+            # messages per second over the last 5 s, or since the key was first seen if that is sooner
+            rate = sum(len([t for t in s["times"] if now - t < 5]) / max(min(5.0, now - s["first"]), 1.0)
+                       for k, s in seen.items() if keys.vehicle_of(k) == v)
             rows.append(f"{v:<10} {'yes' if alive.get(v) else 'NO ':<5} "
                         f"{(f'{now - fix.stamp_s:5.2f}' if fix else '  -  '):>7} {rate:7.1f} "
                         f"{(st.link if st else '-'):>5} {(st.rejected if st else 0):>8}  {(st.note if st else '')[:60]}")

@@ -8,7 +8,9 @@ GPS_RAW_INT and ATTITUDE; it serves the mission protocol both ways:
 - upload: MISSION_COUNT(n) -> MISSION_REQUEST_INT(0..n-1), re-requested when an item is late ->
   MISSION_ACK(ACCEPTED), and the new mission replaces the old one (``on_mission`` is called).
 
-Only messages addressed to this system (target_system) are served.
+Only messages addressed to this system (target_system) are served. With ``signing_key`` it signs what it
+sends (MAVLink 2 signing, link id 0) and ignores anything not signed with that key, as an autopilot with
+signing enabled does.
 """
 
 from __future__ import annotations
@@ -30,7 +32,8 @@ log = logging.getLogger(__name__)
 class SimAutopilot:
     def __init__(self, out_host: str, out_port: int, system_id: int, *, boot_unix_s: float,
                  mav_type: int = mavlink2.MAV_TYPE_GROUND_ROVER,
-                 on_mission: Callable[[list[MissionItem]], None] | None = None) -> None:
+                 on_mission: Callable[[list[MissionItem]], None] | None = None,
+                 signing_key: bytes | None = None) -> None:
         self.peer = (out_host, out_port)
         self.system_id = system_id
         self.boot_unix_s = boot_unix_s
@@ -41,6 +44,12 @@ class SimAutopilot:
         self.sock.settimeout(0.05)
         self.mav = mavlink2.MAVLink(self, system_id, mavlink2.MAV_COMP_ID_AUTOPILOT1)
         self.parser = DatagramParser(mavlink2.MAVLink(None))
+        if signing_key is not None:   # sign what it sends, and accept only what is signed with the key
+            self.mav.signing.secret_key = signing_key
+            self.mav.signing.sign_outgoing = True
+            self.mav.signing.timestamp = int((time.time() - 1420070400) * 1e5)
+            self.parser.mav.signing.secret_key = signing_key
+            self.parser.mav.signing.allow_unsigned_callback = None
         self.mission: list[MissionItem] = []
         self._upload: dict | None = None
         self._lock = threading.Lock()

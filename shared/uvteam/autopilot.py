@@ -100,8 +100,12 @@ class MissionItem:
                            m.frame, m.autocontinue)
 
 
+DEFAULT_BAUD = 57600
+
+
 def parse_url(url: str) -> tuple[str, str, int]:
-    """'udpin:HOST:PORT' -> ('udpin', HOST, PORT); also udpout, tcp; anything else is a serial device."""
+    """'udpin:HOST:PORT' -> ('udpin', HOST, PORT); also udpout, tcp; anything else is a serial device,
+    'DEVICE:BAUD' -> ('serial', DEVICE, BAUD) (BAUD 57600 when left out)."""
     kind, _, rest = url.partition(":")
     if kind in ("udpin", "udpout", "udp", "tcp"):
         host, _, port = rest.rpartition(":")
@@ -112,7 +116,16 @@ def parse_url(url: str) -> tuple[str, str, int]:
         if not (0 < p < 65536) or not host:
             raise LinkError(url, "expected KIND:HOST:PORT with a port in 1-65535")
         return ("udpin" if kind == "udp" else kind), host, p
-    return "serial", url, 0
+    dev, sep, baud = url.rpartition(":")
+    if not sep:
+        return "serial", url, DEFAULT_BAUD
+    try:
+        b = int(baud)
+    except ValueError:
+        raise LinkError(url, "expected a serial device as DEVICE:BAUD, e.g. /dev/ttyACM0:57600") from None
+    if b <= 0 or not dev:
+        raise LinkError(url, "expected a serial device as DEVICE:BAUD with a positive baud rate")
+    return "serial", dev, b
 
 
 class DatagramParser:
@@ -236,8 +249,9 @@ class AutopilotLink:
             from pymavlink import mavutil  # noqa: PLC0415
 
             dev = f"tcp:{self.host}:{self.port}" if self.kind == "tcp" else self.host
+            extra = {"baud": self.port} if self.kind == "serial" else {}
             try:
-                self._conn = mavutil.mavlink_connection(dev, source_system=self.source_system,
+                self._conn = mavutil.mavlink_connection(dev, source_system=self.source_system, **extra,
                                                         source_component=self.source_component,
                                                         autoreconnect=True, dialect="ardupilotmega")
             except (OSError, ConnectionError) as exc:

@@ -93,3 +93,148 @@ def test_link_down_after_silence(pair):
     ap.go_silent()
     assert wait_for(lambda: not link.link_up, 2.0)
     assert link.link_state == "down"
+
+
+# --- MAVLink 2 signing -----------------------------------------------------------------------------
+KEY = bytes(range(32))
+
+
+@pytest.mark.parametrize("ap_key, ok", [(KEY, True), (None, False), (bytes(32), False)],
+                         ids=["same key", "autopilot unsigned", "wrong key"])
+def test_signing_accepts_only_the_shared_key(udp_port, ap_key, ok):
+    link = AutopilotLink(f"udpin:127.0.0.1:{udp_port}", target_system=7, signing_key=KEY).start()
+    ap = SimAutopilot("127.0.0.1", udp_port, 7, boot_unix_s=time.time() - 10.0, signing_key=ap_key).start()
+    try:
+        for k in range(10):
+            ap.send_position(time.time(), 31.485, -111.544, 1300.0, 0.0, 10.0, 0.0, 0.0, 1.0)
+            time.sleep(0.03)
+        assert wait_for(lambda: link.state() is not None, 1.0) is ok
+        assert link.link_up is ok
+        if ok:  # and the link's own messages are signed: the autopilot, requiring signatures, takes a mission
+            link.upload_mission([MissionItem(mavlink2.MAV_CMD_NAV_WAYPOINT, 31.4851, -111.5441, 0.0)])
+            assert len(ap.mission) == 1
+    finally:
+        link.close()
+        ap.stop()
+
+
+def test_unsigned_link_is_refused_by_a_signing_autopilot(udp_port):
+    link = AutopilotLink(f"udpin:127.0.0.1:{udp_port}", target_system=7).start()
+    ap = SimAutopilot("127.0.0.1", udp_port, 7, boot_unix_s=time.time(), signing_key=KEY).start()
+    try:
+        with pytest.raises(Exception):
+            link.upload_mission([MissionItem(mavlink2.MAV_CMD_NAV_WAYPOINT, 31.4851, -111.5441, 0.0)],
+                                timeout_s=0.2, retries=2)
+        assert ap.mission == []
+    finally:
+        link.close()
+        ap.stop()
+
+
+# --- TCP and serial links (through pymavlink's mavutil) -------------------------------------------
+class StreamRelay:
+    """Joins a byte stream (TCP socket or pty) to a SimAutopilot's UDP side, one MAVLink message per
+    datagram each way, as a router such as mavlink-router would."""
+
+    def __init__(self, read, write, udp_port: int) -> None:
+        import threading
+
+        self.read, self.write = read, write
+        self.udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.udp.bind(("127.0.0.1", udp_port))
+        self.udp.settimeout(0.05)
+        self.ap_addr = None
+        self.stop = threading.Event()
+        self.parser = mavlink2.MAVLink(None)
+        self.threads = [threading.Thread(target=f, daemon=True) for f in (self._down, self._up)]
+        for t in self.threads:
+            t.start()
+
+    def _down(self):  # autopilot -> stream
+        while not self.stop.is_set():
+            try:
+                data, self.ap_addr = self.udp.recvfrom(4096)
+            except (TimeoutError, OSError):
+                continue
+            try:
+                self.write(data)
+            except OSError:
+                return
+
+    def _up(self):  # stream -> autopilot
+        while not self.stop.is_set():
+            try:
+                data = self.read()
+            except (TimeoutError, BlockingIOError):
+                continue
+            except OSError:
+                return
+            if not data:
+                time.sleep(0.01)
+                continue
+            for m in self.parser.parse_buffer(data) or []:
+                if self.ap_addr is not None and m.get_type() != "BAD_DATA":
+                    self.udp.sendto(m.get_msgbuf(), self.ap_addr)
+
+    def close(self):
+        self.stop.set()
+        for t in self.threads:
+            t.join(timeout=1.0)
+        self.udp.close()
+
+
+def _exercise(link, ap):
+    assert wait_for(lambda: link.link_up, 5.0)
+    ap.send_position(time.time(), 31.4852, -111.5442, 1300.0, 0.0, 45.0, 0.0, 0.0, 1.0)
+    assert wait_for(lambda: link.state() is not None and abs(link.state().lat_deg - 31.4852) < 1e-7, 3.0)
+    items = [MissionItem(mavlink2.MAV_CMD_NAV_WAYPOINT, 31.485 + 1e-5 * k, -111.544, 0.0) for k in range(4)]
+    link.upload_mission(items)
+    assert len(ap.mission) == 4
+    assert [round(i.lat_deg, 7) for i in link.download_mission()] == [round(i.lat_deg, 7) for i in items]
+
+
+def test_tcp_link(tcp_port, udp_port):
+    srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    srv.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    srv.bind(("127.0.0.1", tcp_port))
+    srv.listen(1)
+    ap = SimAutopilot("127.0.0.1", udp_port, 7, boot_unix_s=time.time() - 5.0).start()
+    link = AutopilotLink(f"tcp:127.0.0.1:{tcp_port}", target_system=7).start()
+    srv.settimeout(5.0)
+    conn, _ = srv.accept()
+    conn.settimeout(0.05)
+    relay = StreamRelay(lambda: conn.recv(4096), conn.sendall, udp_port)
+    try:
+        _exercise(link, ap)
+    finally:
+        link.close()
+        relay.close()
+        ap.stop()
+        conn.close()
+        srv.close()
+
+
+def test_serial_link(udp_port):
+    import pty
+    import select
+    import tty
+
+    master, slave = pty.openpty()
+    tty.setraw(slave)
+    dev = os.ttyname(slave)
+
+    def read():
+        r, _, _ = select.select([master], [], [], 0.05)
+        return os.read(master, 4096) if r else b""
+
+    ap = SimAutopilot("127.0.0.1", udp_port, 7, boot_unix_s=time.time() - 5.0).start()
+    relay = StreamRelay(read, lambda d: os.write(master, d), udp_port)
+    link = AutopilotLink(f"{dev}:57600", target_system=7).start()
+    try:
+        _exercise(link, ap)
+    finally:
+        link.close()
+        relay.close()
+        ap.stop()
+        os.close(master)
+        os.close(slave)
