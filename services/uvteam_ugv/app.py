@@ -1,4 +1,12 @@
-"""The UGV service shell: autopilot -> fix + plan on the bus; crowds -> planner -> mission -> autopilot."""
+"""The UGV service shell: autopilot -> fix + plan on the bus; crowds -> planner -> mission -> autopilot;
+with a forward camera (``[ugv].camera``), HOG people detection -> people geolocated by the triangle
+rule (``uvteam.ugv_localize``) on ``.../people``.
+
+Focal length for the triangle rule: the paper's calibration f = D*h/H from a person of ``person_height_m``
+at ``camera_ref_distance_m`` whose detector box is ``camera_ref_box_height_px`` tall; without one, from
+``camera_hfov_deg`` scaled by the HOG window's height over the person's in it (128/96), since the rule
+uses the box's height.
+"""
 
 from __future__ import annotations
 
@@ -13,15 +21,20 @@ from uvteam import keys
 from uvteam.autopilot import AutopilotLink, fix_from_state
 from uvteam.bus import ZenohBus
 from uvteam.config import VehicleConfig, read_signing_key
-from uvteam.errors import LinkError
+from uvteam.errors import ConfigError, LinkError
 from uvteam.geo import LocalFrame
-from uvteam.messages import Crowds, Fix, Plan, Status
+from uvteam.camera import PinholeCamera
+from uvteam.frames import FrameError, open_source
+from uvteam.messages import Crowds, Fix, PeopleSeen, Person, Plan, Status
+from uvteam.ugv_localize import focal_px_from_reference, localize_people
+from uvteam.vision.people import PeopleDetector
 from uvteam.planning import plan_stations
 from uvteam.service import StopFlag
 
 from .mission import mission_to_plan, plan_to_mission
 
 log = logging.getLogger("uvteam.ugv")
+HOG_BOX_OVER_PERSON = 128.0 / 96.0   # OpenCV's people window is 128 px tall around a ~96 px person
 
 
 class UgvService:
@@ -36,6 +49,42 @@ class UgvService:
         self._missions: queue.Queue = queue.Queue(maxsize=1)
         self.last_fix_stamp = 0.0
         self.published_plans = 0
+        self.people_frames = 0
+        self.people_seen = 0
+
+    def focal_px(self, width_px: int, height_px: int) -> float:
+        u = self.cfg.ugv
+        if u.camera_ref_distance_m > 0 and u.camera_ref_box_height_px > 0:
+            return focal_px_from_reference(u.camera_ref_distance_m, u.camera_ref_box_height_px, u.person_height_m)
+        return PinholeCamera(width_px, height_px, u.camera_hfov_deg).focal_px * HOG_BOX_OVER_PERSON
+
+    def people_loop(self, stop: StopFlag, source) -> None:
+        """Frames -> HOG people -> geolocated with this UGV's newest fix and heading -> the bus."""
+        det = PeopleDetector()
+        u = self.cfg.ugv
+        period = 1.0 / u.people_rate_hz if u.people_rate_hz > 0 else 0.0
+        next_t = 0.0
+        while not stop.is_set():
+            got = source.read()
+            if got is None:
+                log.warning("camera %s: no more frames", u.camera)
+                return
+            stamp, img = got
+            if time.monotonic() < next_t:
+                continue
+            next_t = time.monotonic() + period
+            st = self.link.state()
+            if st is None or self.frame is None:
+                continue
+            found = det.detect(img)
+            h, w = img.shape[:2]
+            pf = localize_people(self.frame, st.lat_deg, st.lon_deg, ((st.heading_deg or 0.0) + u.camera_yaw_deg) % 360.0,
+                                 self.focal_px(w, h), w / 2.0, found.feet_xy_px[:, 0], found.height_px, u.person_height_m)
+            people = tuple(Person(float(la), float(lo), float(d), float(b))
+                           for la, lo, d, b in zip(pf.lat_deg, pf.lon_deg, pf.distance_m, pf.bearing_deg))
+            self.bus.publish(keys.key(self.cfg.team, self.cfg.id, "people"), PeopleSeen(self.cfg.id, stamp, people))
+            self.people_frames += 1
+            self.people_seen += len(people)
 
     # --- bus callbacks (zenoh threads) -------------------------------------------------------------
     def on_fix(self, key: str, fix: Fix) -> None:
@@ -126,6 +175,8 @@ class UgvService:
         if len(lat):
             note = (f"crowds_latency_p50_ms={np.percentile(lat, 50):.2f} crowds_latency_p99_ms="
                     f"{np.percentile(lat, 99):.2f} crowds_received={n}")
+        if self.cfg.ugv.camera:
+            note = f"{note} people_frames={self.people_frames} people_seen={self.people_seen}".strip()
         return Status(self.cfg.id, "ugv", time.time(), self.link.link_state, self.bus.rejected_total,
                       self.bus.published, n, note)
 
@@ -141,6 +192,14 @@ def run(cfg: VehicleConfig, stop: StopFlag) -> int:
         bus.subscribe(keys.key(cfg.team, cfg.ugv.uav, "crowds"), Crowds, svc.on_crowds)
         worker = threading.Thread(target=svc.mission_worker, args=(stop,), daemon=True)
         worker.start()
+        people = None
+        if cfg.ugv.camera:
+            try:
+                source = open_source(cfg.ugv.camera)
+            except FrameError as exc:
+                raise ConfigError(cfg.source, "ugv.camera", str(exc)) from exc
+            people = threading.Thread(target=svc.people_loop, args=(stop, source), daemon=True)
+            people.start()
         log.info("UGV %s up: autopilot %s, following %s's crowds", cfg.id, cfg.autopilot.url, cfg.ugv.uav)
         next_plan = next_status = 0.0
         while not stop.wait(0.02):
@@ -153,6 +212,10 @@ def run(cfg: VehicleConfig, stop: StopFlag) -> int:
                 bus.publish(keys.key(cfg.team, cfg.id, "status"), svc.status())
                 next_status = now + 1.0
         worker.join(timeout=2.0)
+        if people is not None:
+            stop.set()
+            people.join(timeout=2.0)
+            source.close()
         st = svc.status()
         log.info("UGV %s stopping: %s", cfg.id, st.note or "no crowds received")
     return 0

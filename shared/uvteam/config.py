@@ -52,7 +52,13 @@ class UgvConfig:
     horizon_s: float = 3.0
     view_half_width_m: float = 0.0         # 0 = unknown: the ring is not shrunk to the UAV's view
     view_half_height_m: float = 0.0
-    camera: str = ""                       # forward camera for HOG people detection; "" = none
+    camera: str = ""                       # forward camera for HOG people detection (device:N, file, rtsp://, gst:); "" = none
+    camera_hfov_deg: float = 70.0          # used when no reference calibration is given
+    camera_yaw_deg: float = 0.0            # camera axis relative to the vehicle's heading, clockwise
+    camera_ref_distance_m: float = 0.0     # the paper's calibration f = D*h/H: a person of person_height_m at
+    camera_ref_box_height_px: float = 0.0  #   this distance gives a detector box this tall (0 = use the hfov)
+    person_height_m: float = 1.7
+    people_rate_hz: float = 5.0            # HOG frames per second at most
 
 
 @dataclass(frozen=True)
