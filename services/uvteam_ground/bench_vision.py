@@ -45,7 +45,6 @@ def run() -> dict:
         fps = (len(fr) - 1) / (time.perf_counter() - t0)
         res[f"motion_fps_{size[0]}x{size[1]}"] = fps
         print(f"UAV motion detector {size[0]}x{size[1]}: {fps:.1f} fps on one core (target {60 if size[0] == 1280 else 30})")
-    res.update(rendered())
     fr = _frames(DATA / "pedestrians_static_opencv" / "vtest.avi", 20, (640, 480))
     for name, cfg in (("tuned", HogConfig()), ("OpenCV default", HogConfig(upscale=1.0, scale_step=1.05, hit_threshold=0.0))):
         d = PeopleDetector(cfg)
@@ -57,42 +56,3 @@ def run() -> dict:
         print(f"HOG people detector 640x480, {name}: {fps:.1f} fps on one core (target >= 10)")
     return res
 
-
-def rendered(n: int = 60) -> dict:
-    """The simulator's renderer and the UAV's whole pixel pipeline (colour + motion, as the service
-    runs it) on rendered frames of the paper scenarios, at 1280x720 and at 1920x1080 (same field of view)."""
-    from dataclasses import replace  # noqa: PLC0415
-
-    from uvteam.vision.uav import UavVision, UavVisionConfig  # noqa: PLC0415
-    from uvteam_sim.render import Renderer  # noqa: PLC0415
-    from uvteam_sim.scenario import load_scenario  # noqa: PLC0415
-    from uvteam_sim.world import SimWorld  # noqa: PLC0415
-
-    scen = DATA.parent / "scenarios"
-    res = {}
-    for name in ("paper-fig7-alt50", "paper-fig7-alt200"):
-        for w, h in ((1280, 720), (1920, 1080)):
-            sc = load_scenario(scen / f"{name}.toml")
-            sc = replace(sc, camera=replace(sc.camera, width_px=w, height_px=h))
-            world = SimWorld(sc, 1)
-            r = Renderer(world, np.random.default_rng(1))
-            frames, t_render = [], 0.0
-            for _ in range(n):
-                pose = world.camera_pose()
-                t0 = time.perf_counter()
-                frames.append(r.render(pose))
-                t_render += time.perf_counter() - t0
-                for _ in range(4):
-                    world.step(0.025)
-            vis = UavVision(UavVisionConfig(focal_px=world.camera.focal_px, colours=tuple(sc.ugvs.colors)))
-            vis.update(frames[0], 0.0, sc.uav.altitude_agl_m)
-            t0 = time.perf_counter()
-            for i, f in enumerate(frames[1:], start=1):
-                vis.update(f, 0.1 * i, sc.uav.altitude_agl_m)
-            fps = (n - 1) / (time.perf_counter() - t0)
-            key = f"{name}_{w}x{h}"
-            res[f"render_fps_{key}"] = n / t_render
-            res[f"uav_pipeline_fps_{key}"] = fps
-            print(f"rendered {name} {w}x{h}: renderer {n / t_render:.1f} fps; UAV pipeline (colour + motion, "
-                  f"process scale {vis.motion_config.process_scale}) {fps:.1f} fps on one core")
-    return res

@@ -59,7 +59,7 @@ class Team:
     def __init__(self, scenario_path: str, *, team: str = "demo", seed: int | None = None,
                  duration_s: float | None = None, workdir: str | None = None, log_level: str = "INFO",
                  frames: str = "pixels") -> None:
-        from uvteam_sim.scenario import load_scenario  # noqa: PLC0415
+        from uvteam.scenario import load_scenario  # noqa: PLC0415
 
         self.sc = load_scenario(scenario_path)
         self.scenario_path = str(scenario_path)
@@ -102,9 +102,10 @@ class Team:
                 f'[ugv]\nuav = "{self.uav}"\nteam_ugvs = [{ugv_list}]\nstation_radius_m = {sc.ugvs.station_radius_m}\n'
                 f'max_speed_m_s = {sc.ugvs.approach_speed_m_s}\nview_half_width_m = {fw / 2:.2f}\n'
                 f'view_half_height_m = {fh / 2:.2f}\n')
-        from uvteam_sim.experiment import detector_sigmas_px  # noqa: PLC0415
+        from uvteam.detector_noise import localizer_sigmas_px  # noqa: PLC0415
 
-        s_lm, s_tg = detector_sigmas_px(sc, self.frames, sc.landmarks.image_coordinates)
+        s_lm, s_tg = localizer_sigmas_px(self.frames, sc.landmarks.image_coordinates, sc.uav.altitude_agl_m,
+                                         PinholeCamera(sc.camera.width_px, sc.camera.height_px, sc.camera.hfov_deg).focal_px)
         (self.dir / "localizer.toml").write_text(
             f'[vehicle]\nteam = "{self.team}"\nid = "loc1"\nrole = "localizer"\n\n{self._bus()}\n'
             f'[localizer]\nuav = "{self.uav}"\nugvs = [{ugv_list}]\norigin_lat_deg = {sc.world.origin_lat_deg}\n'

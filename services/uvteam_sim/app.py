@@ -29,7 +29,7 @@ from uvteam.service import StopFlag, setup_logging
 
 from .autopilot import SimAutopilot
 from .render import Renderer
-from .scenario import load_scenario
+from uvteam.scenario import load_scenario
 from .world import SimWorld
 
 log = logging.getLogger("uvteam.sim")

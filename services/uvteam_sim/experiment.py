@@ -28,10 +28,10 @@ from uvteam.homography import FitQuality
 from uvteam.localizer import FrameObservation, LocalizerConfig, LocalizerState, UgvTrack, localize_step
 from uvteam.planning import plan_stations
 from uvteam.tracking import CrowdTracker
-from uvteam.vision.uav import sigma_px
+from uvteam.detector_noise import localizer_sigmas_px
 
-from .scenario import Scenario, load_scenario
-from .world import SENSOR_NOISE_PX, SimWorld
+from uvteam.scenario import Scenario, load_scenario
+from .world import SimWorld
 
 __all__ = ["RunResult", "run_scenario_seed", "summarize", "main", "TEAM_DEFAULTS"]
 
@@ -63,12 +63,9 @@ def _ugv_ids(sc: Scenario) -> list[str]:
 
 
 def detector_sigmas_px(sc: Scenario, detector: str, image_coordinates: str) -> tuple[float, float]:
-    """(landmark, target) 1-sigma pixel noise the localizer assumes for this detector."""
-    if detector == "pixels":
-        f = PinholeCamera(sc.camera.width_px, sc.camera.height_px, sc.camera.hfov_deg).focal_px
-        lm = "ugv_blob" if image_coordinates == "motion" else "colour"
-        return sigma_px(lm, sc.uav.altitude_agl_m, f), sigma_px("crowd_blob", sc.uav.altitude_agl_m, f)
-    return SENSOR_NOISE_PX["ugv_blob" if image_coordinates == "motion" else "colour"], SENSOR_NOISE_PX["crowd_blob"]
+    """(landmark, target) 1-sigma pixel noise the localizer assumes for this detector in this scenario."""
+    f = PinholeCamera(sc.camera.width_px, sc.camera.height_px, sc.camera.hfov_deg).focal_px
+    return localizer_sigmas_px(detector, image_coordinates, sc.uav.altitude_agl_m, f)
 
 
 def localizer_config(sc: Scenario, frame, image_coordinates: str | None = None, detector: str = "sensor") -> LocalizerConfig:

@@ -25,7 +25,8 @@ KIND_GATE_PX = 30.0
 class PixelDetector:
     kind = "pixels"
 
-    def __init__(self, keep_frames: bool = False) -> None:
+    def __init__(self, keep_frames: bool = False, **vision_overrides) -> None:
+        self.vision_overrides = vision_overrides   # UavVisionConfig fields, for ablations
         self._world: SimWorld | None = None
         self.renderer: Renderer | None = None
         self.vision: UavVision | None = None
@@ -38,7 +39,7 @@ class PixelDetector:
         self._world = world
         self.renderer = Renderer(world, np.random.default_rng([world.seed, 0x5EE]))
         self.vision = UavVision(UavVisionConfig(focal_px=world.camera.focal_px, colours=tuple(sc.ugvs.colors),
-                                                label_side_m=sc.ugvs.label_side_m))
+                                                label_side_m=sc.ugvs.label_side_m, **self.vision_overrides))
 
     def __call__(self, world: SimWorld, pose: CameraPose, stamp_s: float) -> SensorFrame:
         if world is not self._world:
@@ -71,5 +72,5 @@ def blob_kinds(world: SimWorld, pose: CameraPose, xy_px: np.ndarray) -> tuple[st
     return tuple(names[jj] if d[i, jj] <= KIND_GATE_PX else "false" for i, jj in enumerate(j))
 
 
-def pixel_detector(keep_frames: bool = False) -> PixelDetector:
-    return PixelDetector(keep_frames)
+def pixel_detector(keep_frames: bool = False, **vision_overrides) -> PixelDetector:
+    return PixelDetector(keep_frames, **vision_overrides)

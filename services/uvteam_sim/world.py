@@ -29,19 +29,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from uvteam.camera import CameraPose, PinholeCamera, project
+from uvteam.detector_noise import SENSOR_MODEL_SIGMA_PX
 from uvteam.geo import LocalFrame
 
-from .scenario import Scenario
+from uvteam.scenario import Scenario
 
-__all__ = ["SimWorld", "SensorFrame", "SENSOR_NOISE_PX"]
+__all__ = ["SimWorld", "SensorFrame"]
 
 ROOF_HEIGHT_M = 1.0
 PERSON_CENTRE_HEIGHT_M = 1.0
 PERSON_RADIUS_M = 0.3
 MEMBER_WANDER_M = 0.3
 WOBBLE_TAU_S = 3.0
-# sensor model (used until pixels are processed): 1-sigma pixel noise of each detection kind
-SENSOR_NOISE_PX = {"colour": 0.5, "ugv_blob": 1.0, "crowd_blob": 1.5}
 MISS_PROB = 0.02
 FALSE_BLOBS_PER_FRAME = 0.05
 STATION_BAND_M = 3.0
@@ -215,9 +214,9 @@ class SimWorld:
             if not self._in_image(lm_px[i]):
                 continue
             if rng.random() >= MISS_PROB:
-                landmarks[colour] = tuple(lm_px[i] + rng.normal(0, SENSOR_NOISE_PX["colour"], 2))
+                landmarks[colour] = tuple(lm_px[i] + rng.normal(0, SENSOR_MODEL_SIGMA_PX["colour"], 2))
             if self.ugv_speed[i] > MOVING_M_S and rng.random() >= MISS_PROB:
-                c = lm_px[i] + rng.normal(0, SENSOR_NOISE_PX["ugv_blob"], 2)
+                c = lm_px[i] + rng.normal(0, SENSOR_MODEL_SIGMA_PX["ugv_blob"], 2)
                 xy.append(c)
                 boxes.append([c[0] - half, c[1] - half, c[0] + half, c[1] + half])
                 kinds.append(f"ugv:{colour}")
@@ -230,7 +229,7 @@ class SimWorld:
             if vis.sum() < max(2, 0.5 * len(m)) or rng.random() < MISS_PROB:
                 continue
             p = px[vis]
-            c = p.mean(0) + rng.normal(0, SENSOR_NOISE_PX["crowd_blob"], 2)
+            c = p.mean(0) + rng.normal(0, SENSOR_MODEL_SIGMA_PX["crowd_blob"], 2)
             xy.append(c)
             boxes.append([p[:, 0].min() - r_px, p[:, 1].min() - r_px, p[:, 0].max() + r_px, p[:, 1].max() + r_px])
             kinds.append(f"crowd:{k}")

@@ -7,7 +7,7 @@ from uvteam.config import load_vehicle_config
 from uvteam.errors import ConfigError
 from uvteam.geo import LocalFrame
 from uvteam.planning import plan_stations
-from uvteam_sim.scenario import load_scenario
+from uvteam.scenario import load_scenario
 from uvteam_ugv.mission import mission_to_plan, plan_to_mission
 
 REPO = Path(__file__).resolve().parents[2]

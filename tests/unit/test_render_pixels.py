@@ -18,7 +18,7 @@ from uvteam.vision.uav import UavVisionConfig, landmark_config
 from uvteam_sim.experiment import run_scenario_seed, summarize
 from uvteam_sim.pixels import pixel_detector
 from uvteam_sim.render import LABEL_BGR, Renderer
-from uvteam_sim.scenario import load_scenario
+from uvteam.scenario import load_scenario
 from uvteam_sim.world import SimWorld
 
 SCENARIOS = Path(__file__).resolve().parents[3] / "shared" / "scenarios"

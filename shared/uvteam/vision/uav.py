@@ -20,18 +20,8 @@ import numpy as np
 from .landmarks import LandmarkConfig, detect_landmarks
 from .motion import MotionBlobs, MotionConfig, MotionDetector, bounds_for_altitude
 
-__all__ = ["UavVisionConfig", "UavVision", "UavFrameResult", "landmark_config", "PIXEL_SIGMA_M", "sigma_px"]
+__all__ = ["UavVisionConfig", "UavVision", "UavFrameResult", "landmark_config"]
 
-# 1-sigma position error per axis, in ground metres, of what this pipeline reports, measured on rendered
-# frames against the true positions (paper-fig7-alt50, seed 1: colour centres 0.02 m; a UGV's motion-blob
-# centre 0.2 m; a crowd's blob centre 0.57 m median off the members' centroid, most of it the members'
-# shadows, so 0.4 m covers it at 95 %). The localizer propagates these into each crowd's 95 % radius.
-PIXEL_SIGMA_M = {"colour": 0.03, "ugv_blob": 0.25, "crowd_blob": 0.4}
-
-
-def sigma_px(kind: str, alt_agl_m: float, focal_px: float) -> float:
-    """PIXEL_SIGMA_M[kind] in image pixels at this altitude (nadir camera)."""
-    return PIXEL_SIGMA_M[kind] * focal_px / alt_agl_m
 
 
 @dataclass(frozen=True, slots=True)
