@@ -95,6 +95,7 @@ def run(cfg: VehicleConfig, stop: StopFlag) -> int:
         def on_sensor(key: str, det: Detections) -> None:
             bus.publish(det_key, relabel(det, cfg.id, u.colors))
             counts["frames"] += 1
+            counts["processed"] += 1
 
         def on_frame(key: str, fr: Frame) -> None:
             counts["frames"] += 1

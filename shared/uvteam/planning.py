@@ -7,7 +7,8 @@ as a landmark. UGVs are matched to stations keeping their cyclic order around th
 assignment moving the team least among those that keep the order): a UGV is never sent across the
 ring, so no path runs through the crowd, where a UGV's motion blob would merge with the crowd's. Every
 UGV service computes the same plan from the same fixes, so each can plan for itself without a
-coordinator. The ring's phase is chosen with the assignment. When a UGV's straight way to its station
+coordinator. For a moving crowd the ring is oriented by its direction of travel (stations symmetric
+about it); for a still one the phase is chosen with the assignment. When a UGV's straight way to its station
 would still pass within ``clearance`` x radius of the crowd (the team bunched on one side), it goes
 round on the ring instead, in arcs of at most 60 degrees.
 """
@@ -19,6 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["StationPlan", "plan_stations"]
+
+MOVING_M_S = 0.3   # slower than this, a crowd's direction of travel is not used to place the ring
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,7 +49,15 @@ def plan_stations(crowd_en_m, crowd_v_m_s, ugv_en_m: dict[str, np.ndarray], now_
     base = 2 * np.pi * np.arange(n) / n
     order = np.argsort(np.arctan2(pos[:, 0] - c[0], pos[:, 1] - c[1]) % (2 * np.pi), kind="stable")
     best = None
-    for phase in np.linspace(0, 2 * np.pi / n, n_phases, endpoint=False):
+    speed = float(np.hypot(*v))
+    if speed > MOVING_M_S:
+        # a moving crowd: the ring is set by its direction of travel, stations symmetric about it (none
+        # dead ahead). Choosing the phase that moves the team least would ratchet the ring backwards
+        # whenever the team lags a crowd faster than the UGVs' station speed, sweeping them behind it.
+        phases = [np.arctan2(v[0], v[1]) + np.pi / n]
+    else:
+        phases = np.linspace(0, 2 * np.pi / n, n_phases, endpoint=False)
+    for phase in phases:
         ang = base + phase
         st = c + r * np.column_stack([np.sin(ang), np.cos(ang)])
         d = np.sqrt(((pos[:, None] - st[None]) ** 2).sum(-1))

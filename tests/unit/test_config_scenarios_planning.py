@@ -101,3 +101,17 @@ def test_plan_mission_round_trip():
     e, n = frame.wgs84_to_ground(np.array([w.lat_deg for w in plan.waypoints]), np.array([w.lon_deg for w in plan.waypoints]))
     np.testing.assert_allclose(np.column_stack([e, n]), plans["a"].en_m, atol=0.02)  # 1e-7 deg on the wire
     np.testing.assert_allclose([w.stamp_s for w in plan.waypoints], plans["a"].stamp_s, atol=0.02)
+
+
+@pytest.mark.parametrize("lag_deg", [0.0, -30.0, -60.0])
+def test_ring_follows_the_crowds_heading_not_the_teams_lag(lag_deg):
+    # four UGVs that have slid back round the ring (a crowd faster than their station speed): the
+    # stations stay symmetric about the direction of travel, so the team is sent forward again
+    v = np.array([2.22, 2.22])
+    heading = np.arctan2(v[0], v[1])
+    ang = heading + np.radians(45.0 + lag_deg) + np.arange(4) * np.pi / 2
+    ugvs = {f"u{i}": 12.0 * np.array([np.sin(a), np.cos(a)]) for i, a in enumerate(ang)}
+    plans = plan_stations([0, 0], v, ugvs, 0.0, radius_m=12.0)
+    first = np.array([p.en_m[-3] for p in plans.values()]) - v          # stations, crowd-relative
+    rel = np.sort((np.degrees(np.arctan2(first[:, 0], first[:, 1]) - heading) + 360.0) % 360.0)
+    np.testing.assert_allclose(rel, [45.0, 135.0, 225.0, 315.0], atol=1e-6)
