@@ -136,7 +136,8 @@ class LocalizerService:
         en = np.array([[c.east_m, c.north_m] for c in res.crowds]).reshape(-1, 2)
         self.tracker, trk = self.tracker.update(en, det.stamp_s)
         out = []
-        for c, tr in zip(res.crowds, trk):
+        # the longest-seen crowd first: a UGV that follows one crowd follows that one
+        for c, tr in sorted(zip(res.crowds, trk), key=lambda ct: (-ct[1].hits, ct[1].track_id)):
             if tr.hits < lc.confirm_hits:
                 continue
             out.append(Crowd(tr.track_id, c.lat_deg, c.lon_deg, tuple(map(float, c.footprint_latlon_deg[:, 0])),

@@ -160,7 +160,7 @@ def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinat
         tracker, trk = tracker.update(en_now, T0 + t)
         confirmed = [(c, tr) for c, tr in zip(out.crowds, trk) if tr.hits >= CONFIRM_HITS]
         if confirmed:
-            best = min(confirmed, key=lambda ct: ct[1].track_id)
+            best = max(confirmed, key=lambda ct: (ct[1].hits, -ct[1].track_id))  # the longest-seen crowd
             crowd_est = (np.array([best[0].east_m, best[0].north_m]),
                          np.array([best[1].v_east_m_s, best[1].v_north_m_s]), t)
         # scoring

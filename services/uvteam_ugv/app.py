@@ -99,7 +99,7 @@ class UgvService:
             if len(self.latency_ms) > 100_000:
                 del self.latency_ms[:50_000]
             if msg.crowds and self.frame is not None:
-                c = min(msg.crowds, key=lambda c: c.crowd_id)
+                c = msg.crowds[0]   # the localizer lists the longest-seen crowd first
                 e, n = self.frame.wgs84_to_ground(c.lat_deg, c.lon_deg)
                 self.crowd = (np.array([float(e), float(n)]), np.array([c.v_east_m_s, c.v_north_m_s]), msg.stamp_s)
 

@@ -141,7 +141,8 @@ class MotionDetector:
         """Blobs moving in ``frame``. ``carve_xy_px`` (full-resolution points, e.g. colour-detected
         vehicles) split a blob that holds one of them and is more than the carved disc: the moving
         pixels within ``carve_radius_px`` of the point become a blob of their own, the rest another, so
-        a vehicle driving through a crowd neither hides the crowd nor is reported as part of it. A blob
+        a vehicle driving through a crowd neither hides the crowd nor is reported as part of it; such a
+        vehicle's blob is centred on its point, since its pixels are mixed with the crowd's. A blob
         that is a vehicle's (carved, or holding its point with no more than a vehicle's worth) says
         which point in ``MotionBlobs.carved``, and needs no crowd-sized area."""
         cfg = self.cfg
@@ -196,6 +197,7 @@ class MotionDetector:
             m = comp & (recent[y:y + bh, x:x + bw] > 0)       # the pixels that moved lately
             now = comp & (moving[y:y + bh, x:x + bw] > 0)
             parts = [(m, now, cfg.min_area_px, -1)]
+            centre_of: dict[int, tuple[float, float]] = {}
             inside = [ci for ci, (cx, cy) in enumerate(carve) if x <= cx < x + bw and y <= cy < y + bh] if r2 > 0 else []
             if inside:
                 # each pixel within the radius of a vehicle's point is that (nearest) vehicle's; what is
@@ -205,20 +207,28 @@ class MotionDetector:
                 nearest = d2.argmin(0)
                 near = d2.min(0) <= r2
                 parts = []
+                shared = len(inside) > 1
                 if (m & ~near).sum() >= np.pi * r2:
                     parts.append((m & ~near, now & ~near, cfg.min_area_px, -1))
+                    shared = True
                 for k, ci in enumerate(inside):
                     own = near & (nearest == k)
                     parts.append((m & own, now & own, MIN_VEHICLE_AREA_PX, ci))
-            for pm, pnow, min_area, ci in parts:
+                    if shared:   # cut out of a crowd or a neighbour: its pixels are mixed, its point is not
+                        centre_of[len(parts) - 1] = (carve[ci, 0] - x, carve[ci, 1] - y)
+            for pi, (pm, pnow, min_area, ci) in enumerate(parts):
                 area = float(pm.sum()) * inv * inv
                 if not min_area <= area <= cfg.max_area_px:
                     continue
                 # The centre comes from this frame's moving pixels: the history's centroid would trail
                 # the crowd by half the history (0.6 m at 3 m/s, 0.4 s); this lags by half a frame at most.
-                ys, xs = np.nonzero(pnow if pnow.any() else pm)
+                if pi in centre_of:
+                    cx, cy = centre_of[pi]
+                else:
+                    ys, xs = np.nonzero(pnow if pnow.any() else pm)
+                    cx, cy = xs.mean(), ys.mean()
                 bys, bxs = np.nonzero(pm)
-                xy.append([(xs.mean() + x + 0.5) * inv - 0.5, (ys.mean() + y + 0.5) * inv - 0.5])
+                xy.append([(cx + x + 0.5) * inv - 0.5, (cy + y + 0.5) * inv - 0.5])
                 boxes.append([(bxs.min() + x) * inv, (bys.min() + y) * inv, (bxs.max() + x + 1) * inv,
                               (bys.max() + y + 1) * inv])
                 areas.append(area)
