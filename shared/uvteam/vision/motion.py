@@ -28,6 +28,7 @@ import cv2
 import numpy as np
 
 MIN_VEHICLE_AREA_PX = 4.0   # a carved vehicle's blob only needs to be more than noise
+AGE_UNIT_S = 0.01           # the motion history's time step
 
 __all__ = ["MotionConfig", "MotionBlobs", "MotionDetector", "bounds_for_altitude", "compensate"]
 
@@ -43,7 +44,8 @@ class MotionConfig:
     model: str = "homography"          # "homography" | "affine"
     ransac_px: float = 2.0
     diff_threshold: float = 18.0       # grey levels after compensation
-    history_s: float = 0.4
+    history_s: float = 0.4             # at most 2.5 s (the history counts in 10 ms steps, in a byte)
+    compensate_max_scale: float = 0.5  # camera motion is fitted on a copy at most this scale of the input
     merge_px: int = 9                  # closing kernel (processed pixels): joins a crowd's members
     open_px: int = 3                   # opening kernel: removes speckle
     min_area_px: float = 12.0          # full-resolution pixels
@@ -52,6 +54,10 @@ class MotionConfig:
     speckle: str = "open"              # "open": open each frame's mask; "neighbours": see update()
 
     def __post_init__(self) -> None:
+        if not 0.0 < self.history_s <= 2.5:
+            raise ValueError(f"history_s must be in (0, 2.5], got {self.history_s}")
+        if not 0.05 <= self.compensate_max_scale <= 1.0:
+            raise ValueError(f"compensate_max_scale must be in [0.05, 1], got {self.compensate_max_scale}")
         if self.speckle not in ("open", "neighbours"):
             raise ValueError(f"speckle must be 'open' or 'neighbours', got {self.speckle!r}")
         if self.model not in ("homography", "affine"):
@@ -127,14 +133,15 @@ class MotionDetector:
     def __init__(self, cfg: MotionConfig = MotionConfig()) -> None:
         self.cfg = cfg
         self._prev: np.ndarray | None = None
-        self._mhi: np.ndarray | None = None
+        self._prev_c: np.ndarray | None = None
+        self._stamp_s: float | None = None
+        self._age: np.ndarray | None = None
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
         # a square closing: it joins members up to merge_px apart, and costs the same at any size
         self._k_close = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.merge_px, cfg.merge_px))
 
     def reset(self) -> None:
-        self._prev = None
-        self._mhi = None
+        self._prev = self._prev_c = self._stamp_s = self._age = None
 
     def update(self, frame: np.ndarray, stamp_s: float, carve_xy_px: np.ndarray | None = None,
                carve_radius_px: float = 0.0) -> MotionBlobs:
@@ -149,17 +156,29 @@ class MotionDetector:
         gray = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame
         s = cfg.process_scale
         curr = cv2.resize(gray, None, fx=s, fy=s, interpolation=cv2.INTER_AREA) if s != 1.0 else gray
+        # camera motion is global: it is fitted on a copy of at most compensate_max_scale
+        c = min(1.0, cfg.compensate_max_scale / s)
+        curr_c = cv2.resize(curr, None, fx=c, fy=c, interpolation=cv2.INTER_AREA) if c < 1.0 else curr
         prev, self._prev = self._prev, curr
+        prev_c, self._prev_c = self._prev_c, curr_c
+        dt_s = stamp_s - self._stamp_s if self._stamp_s is not None else 0.0
+        self._stamp_s = stamp_s
         if prev is None or prev.shape != curr.shape:
-            self._mhi = np.zeros(curr.shape, np.float32)
+            self._age = np.full(curr.shape, 255, np.uint8)
             return MotionBlobs.empty()
-        M, n_tr, n_in, rms = compensate(prev, curr, cfg)
+        M, n_tr, n_in, rms = compensate(prev_c, curr_c, cfg)
         if M is None:
-            self._mhi[:] = 0  # lost registration: history is no longer aligned
+            self._age[:] = 255  # lost registration: the history is no longer aligned
             return MotionBlobs.empty(n_tr, n_in, rms)
+        if c < 1.0:  # back to processing pixels (pixel centres: x_c = (x + 0.5) c - 0.5)
+            S = np.array([[c, 0.0, 0.5 * c - 0.5], [0.0, c, 0.5 * c - 0.5], [0.0, 0.0, 1.0]])
+            M = np.linalg.inv(S) @ M @ S
         h, w = curr.shape
         warped = cv2.warpPerspective(prev, M, (w, h), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
-        valid = cv2.warpPerspective(np.full((h, w), 255, np.uint8), M, (w, h), flags=cv2.INTER_NEAREST)
+        # where the previous frame covers this one: its corners warped, minus a border
+        corners = cv2.perspectiveTransform(np.float32([[[0, 0]], [[w - 1, 0]], [[w - 1, h - 1]], [[0, h - 1]]]), M)
+        valid = np.zeros((h, w), np.uint8)
+        cv2.fillConvexPoly(valid, np.round(corners.reshape(-1, 2) * 16).astype(np.int32), 255, cv2.LINE_8, 4)
         valid = cv2.erode(valid, np.ones((2 * cfg.border_px + 1, 2 * cfg.border_px + 1), np.uint8))
         diff = cv2.absdiff(curr, warped)
         _, moving = cv2.threshold(diff, cfg.diff_threshold, 255, cv2.THRESH_BINARY)
@@ -176,17 +195,31 @@ class MotionDetector:
         moving[-b:] = 0
         moving[:, :b] = 0
         moving[:, -b:] = 0
-        # motion history, kept registered with the camera
-        mhi = cv2.warpPerspective(self._mhi, M, (w, h), flags=cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT)
-        mhi[moving > 0] = np.float32(stamp_s % 100_000.0)
-        t_rel = np.float32(stamp_s % 100_000.0)
-        recent = ((mhi > 0) & (t_rel - mhi <= cfg.history_s) & (t_rel - mhi >= 0)).astype(np.uint8) * 255
+        # motion history, kept registered with the camera: each pixel's time since it last moved, in
+        # AGE_UNIT_S steps (uint8, saturating at "long ago"), warped along with the camera
+        age = cv2.warpPerspective(self._age, M, (w, h), flags=cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT,
+                                  borderValue=255)
+        age = cv2.add(age, int(min(255, max(0, round(dt_s / AGE_UNIT_S)))))
+        age[moving > 0] = 0
+        _, recent = cv2.threshold(age, int(round(cfg.history_s / AGE_UNIT_S)), 255, cv2.THRESH_BINARY_INV)
         if cfg.speckle == "neighbours":
             recent = cv2.morphologyEx(recent, cv2.MORPH_OPEN, self._k_open)
             moving &= recent
-        self._mhi = mhi
+        self._age = age
         joined = cv2.morphologyEx(recent, cv2.MORPH_CLOSE, self._k_close)
-        n, labels, stats, cents = cv2.connectedComponentsWithStats(joined, connectivity=8)
+        if cfg.merge_px >= 8 and h >= 64 and w >= 64:
+            # blobs joined over >= 8 px do not need full resolution to be told apart: label a 2x2
+            # max-pooled copy (4x fewer pixels), then carry the labels back to the full mask
+            h2, w2 = h // 2 * 2, w // 2 * 2
+            small = cv2.resize(cv2.dilate(joined, np.ones((2, 2), np.uint8))[:h2, :w2], (w2 // 2, h2 // 2),
+                               interpolation=cv2.INTER_NEAREST)
+            n, lab_small, stats, _ = cv2.connectedComponentsWithStats(small, connectivity=8)
+            labels = np.zeros((h, w), np.int32)
+            labels[:h2, :w2] = cv2.resize(lab_small, (w2, h2), interpolation=cv2.INTER_NEAREST)
+            labels[joined == 0] = 0
+            stats = stats * 2    # boxes in full-resolution pixels (each small pixel is 2x2)
+        else:
+            n, labels, stats, _ = cv2.connectedComponentsWithStats(joined, connectivity=8)
         xy, boxes, areas, carved = [], [], [], []
         inv = 1.0 / s
         carve = np.empty((0, 2)) if carve_xy_px is None else (np.asarray(carve_xy_px, float).reshape(-1, 2) + 0.5) * s - 0.5
