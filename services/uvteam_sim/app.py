@@ -25,11 +25,11 @@ from uvteam.bus import ZenohBus, add_bus_args, bus_config_from_args
 from uvteam.errors import ConfigError, LinkError
 from uvteam.frames import encode_frame
 from uvteam.messages import Blob, Detections, Landmark, Truth, TruthCrowd, TruthUgv
+from uvteam.scenario import load_scenario
 from uvteam.service import StopFlag, setup_logging
 
 from .autopilot import SimAutopilot
 from .render import Renderer
-from uvteam.scenario import load_scenario
 from .world import SimWorld
 
 log = logging.getLogger("uvteam.sim")
@@ -112,7 +112,6 @@ def run(sc, args, stop: StopFlag) -> int:
     lost = {int(i): float(t) for i, t in sc.events.lose_ugv}
     pending: list[tuple[float, int, tuple]] = []
     frame_seq = 0
-    colours = sc.ugvs.colors
     g = sc.world.ground_amsl_m
     try:
         with ZenohBus.open(bus_config_from_args(args)) as bus:

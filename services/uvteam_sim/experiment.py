@@ -24,13 +24,12 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from uvteam.camera import PinholeCamera
-from uvteam.homography import FitQuality
+from uvteam.detector_noise import localizer_sigmas_px
 from uvteam.localizer import FrameObservation, LocalizerConfig, LocalizerState, UgvTrack, localize_step
 from uvteam.planning import plan_stations
-from uvteam.tracking import CrowdTracker
-from uvteam.detector_noise import localizer_sigmas_px
-
 from uvteam.scenario import Scenario, load_scenario
+from uvteam.tracking import CrowdTracker
+
 from .world import SimWorld
 
 __all__ = ["RunResult", "run_scenario_seed", "summarize", "main", "TEAM_DEFAULTS"]

@@ -31,7 +31,6 @@ import numpy as np
 from uvteam.camera import CameraPose, PinholeCamera, project
 from uvteam.detector_noise import SENSOR_MODEL_SIGMA_PX
 from uvteam.geo import LocalFrame
-
 from uvteam.scenario import Scenario
 
 __all__ = ["SimWorld", "SensorFrame"]

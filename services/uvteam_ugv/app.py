@@ -25,7 +25,7 @@ from uvteam.errors import ConfigError, LinkError
 from uvteam.geo import LocalFrame
 from uvteam.camera import PinholeCamera
 from uvteam.frames import FrameError, open_source
-from uvteam.messages import Crowds, Fix, PeopleSeen, Person, Plan, Status
+from uvteam.messages import Crowds, Fix, PeopleSeen, Person, Status
 from uvteam.ugv_localize import focal_px_from_reference, localize_people
 from uvteam.vision.people import PeopleDetector
 from uvteam.planning import plan_stations
