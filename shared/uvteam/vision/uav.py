@@ -34,7 +34,7 @@ class UavVisionConfig:
     crowd_spacing_m: float = 4.0              # members this far apart still make one blob
     crowd_max_m: float = 40.0
     min_crowd_m2: float = 6.0                 # moving ground area of about three people in the history
-    motion: MotionConfig = field(default_factory=lambda: MotionConfig(speckle="neighbours"))
+    motion: MotionConfig = field(default_factory=lambda: MotionConfig(speckle="neighbours", max_corners=200, lk_window_px=15))
     landmarks: LandmarkConfig = field(default_factory=LandmarkConfig)
 
     def __post_init__(self) -> None:
