@@ -210,8 +210,8 @@ def summarize(results: list[RunResult]) -> dict:
     }
 
 
-def _run_job(job: tuple[str, str, int, str]) -> RunResult:
-    path, _name, seed, detector = job
+def _run_job(job: tuple[str, int, str]) -> RunResult:
+    path, seed, detector = job
     import cv2  # noqa: PLC0415
 
     cv2.setNumThreads(1)  # one core per run: the runs themselves are the parallelism
@@ -261,7 +261,7 @@ def main(argv: list[str] | None = None) -> int:
     scenarios = [load_scenario(p) for p in args.scenarios]
     per: dict[str, list[RunResult]] = {}
     t0 = time.perf_counter()
-    work = [(str(p), sc.name, seed, args.detector) for p, sc in zip(args.scenarios, scenarios)
+    work = [(str(p), seed, args.detector) for p, sc in zip(args.scenarios, scenarios)
             for seed in (sc.run.seeds[: args.seeds] if args.seeds else sc.run.seeds)]
     _progress(0, len(work), "")
     if args.jobs > 1:

@@ -15,7 +15,7 @@ from uvteam.camera import CameraPose, project
 from uvteam.vision.uav import UavVision, UavVisionConfig
 
 from .render import Renderer
-from .world import PERSON_CENTRE_HEIGHT_M, SensorFrame, SimWorld
+from .world import SensorFrame, SimWorld
 
 __all__ = ["PixelDetector", "pixel_detector"]
 
@@ -61,10 +61,9 @@ def blob_kinds(world: SimWorld, pose: CameraPose, xy_px: np.ndarray) -> tuple[st
     for colour, p in zip(world.sc.ugvs.colors, lm):
         names.append(f"ugv:{colour}")
         pts.append(p)
-    for k, m in enumerate(world._blob_groups()):
-        enu = np.column_stack([m, world.terrain_up_m(m) + PERSON_CENTRE_HEIGHT_M])
+    for k, px in enumerate(world.crowd_groups_px(pose)):
         names.append(f"crowd:{k}")
-        pts.append(np.nanmean(project(world.camera, pose, enu), 0))
+        pts.append(np.nanmean(px, 0))
     pts = np.array(pts)
     d = np.sqrt(((xy_px[:, None] - pts[None]) ** 2).sum(-1))
     d[~np.isfinite(d)] = np.inf

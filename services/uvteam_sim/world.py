@@ -203,6 +203,11 @@ class SimWorld:
         up = self.terrain_up_m(self.ugv_p) + ROOF_HEIGHT_M
         return np.column_stack([self.ugv_p, up])
 
+    def crowd_groups_px(self, pose: CameraPose) -> list[np.ndarray]:
+        """Each scored crowd's members (mingling crowds as one) in the image: (N_k, 2) pixels, NaN behind."""
+        return [project(self.camera, pose, np.column_stack([m, self.terrain_up_m(m) + PERSON_CENTRE_HEIGHT_M]))
+                for m in self._blob_groups()]
+
     def sense(self, pose: CameraPose, stamp_s: float) -> SensorFrame:
         """The sensor model: what a detector would report in this frame, with noise, misses, false blobs."""
         rng, sc, cam = self.rng, self.sc, self.camera
@@ -221,11 +226,9 @@ class SimWorld:
                 kinds.append(f"ugv:{colour}")
                 colours.append(colour if colour in landmarks else "")  # the label lies inside its blob
         r_px = PERSON_RADIUS_M * cam.focal_px / sc.uav.altitude_agl_m
-        for k, m in enumerate(self._blob_groups()):
-            enu = np.column_stack([m, self.terrain_up_m(m) + PERSON_CENTRE_HEIGHT_M])
-            px = project(cam, pose, enu)
+        for k, px in enumerate(self.crowd_groups_px(pose)):
             vis = self._in_image(px)
-            if vis.sum() < max(2, 0.5 * len(m)) or rng.random() < MISS_PROB:
+            if vis.sum() < max(2, 0.5 * len(px)) or rng.random() < MISS_PROB:
                 continue
             p = px[vis]
             c = p.mean(0) + rng.normal(0, SENSOR_MODEL_SIGMA_PX["crowd_blob"], 2)

@@ -102,18 +102,15 @@ def run(cfg: VehicleConfig, stop: StopFlag) -> int:
             slot.put((fr.stamp_s, fr.frame_seq, fr))
 
         def grab_loop() -> None:
-            seq = 0
-            while not stop.is_set():
-                got = source.read()
-                if got is None:
-                    log.warning("camera %s: no more frames", u.camera)
-                    return
-                seq += 1
+            for seq, (stamp, img) in enumerate(source.stream(stop), start=1):
                 counts["frames"] += 1
-                slot.put((got[0], seq, got[1]))
+                slot.put((stamp, seq, img))
+            if not stop.is_set():
+                log.warning("camera %s: no more frames", u.camera)
 
         def work_loop() -> None:
             vision: UavVision | None = None
+            size = None
             while not stop.is_set():
                 item = slot.take(0.2)
                 if item is None:
@@ -130,7 +127,8 @@ def run(cfg: VehicleConfig, stop: StopFlag) -> int:
                     counts["no_altitude"] += 1
                     continue
                 h, w = img.shape[:2]
-                if vision is None or vision.cfg.focal_px != PinholeCamera(w, h, u.hfov_deg).focal_px:
+                if (w, h) != size:   # the focal length in pixels follows the frame size
+                    size = (w, h)
                     vision = UavVision(UavVisionConfig(focal_px=PinholeCamera(w, h, u.hfov_deg).focal_px,
                                                        colours=tuple(u.colors), label_side_m=u.label_side_m))
                 r = vision.update(img, stamp, st.alt_agl_m)

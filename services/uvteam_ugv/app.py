@@ -64,12 +64,7 @@ class UgvService:
         u = self.cfg.ugv
         period = 1.0 / u.people_rate_hz if u.people_rate_hz > 0 else 0.0
         next_t = 0.0
-        while not stop.is_set():
-            got = source.read()
-            if got is None:
-                log.warning("camera %s: no more frames", u.camera)
-                return
-            stamp, img = got
+        for stamp, img in source.stream(stop):
             if time.monotonic() < next_t:
                 continue
             next_t = time.monotonic() + period
@@ -85,6 +80,8 @@ class UgvService:
             self.bus.publish(keys.key(self.cfg.team, self.cfg.id, "people"), PeopleSeen(self.cfg.id, stamp, people))
             self.people_frames += 1
             self.people_seen += len(people)
+        if not stop.is_set():
+            log.warning("camera %s: no more frames", u.camera)
 
     # --- bus callbacks (zenoh threads) -------------------------------------------------------------
     def on_fix(self, key: str, fix: Fix) -> None:

@@ -15,7 +15,7 @@ to them itself. This module is I/O for the shells; the detectors never see where
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import cv2
@@ -93,6 +93,14 @@ class FrameSource:
         if img.ndim == 2:
             img = cv2.cvtColor(img, cv2.COLOR_GRAY2BGR)
         return stamp, img
+
+    def stream(self, stop) -> Iterator[tuple[float, np.ndarray]]:
+        """(stamp_s, frame) until the source ends or ``stop`` (anything with ``is_set()``) is set."""
+        while not stop.is_set():
+            got = self.read()
+            if got is None:
+                return
+            yield got
 
     def close(self) -> None:
         self.cap.release()

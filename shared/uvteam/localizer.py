@@ -201,9 +201,9 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: dict[str
         ref.update(prev)  # the previous blob predicts the current one better than a flickering colour
     # blobs the detector already knows to be a UGV (its roof label lies in the blob) are that UGV's
     labelled = {u: j for j, u in enumerate(obs.blob_ugv[:nb]) if u}
-    ugv_ids = sorted(u for u in ref if u not in labelled)
+    to_assign = sorted(u for u in ref if u not in labelled)
     free = np.array([j for j in range(nb) if j not in labelled.values()], int)
-    ref_xy = np.array([ref[u] for u in ugv_ids], float).reshape(-1, 2)
+    ref_xy = np.array([ref[u] for u in to_assign], float).reshape(-1, 2)
     solve = assign_optimal if cfg.solver == "optimal" else assign_greedy
     asg = solve(ref_xy, blobs[free], cfg.gate_px)
     gated = np.zeros(nb, bool)
@@ -212,14 +212,13 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: dict[str
     if obs.landmarks_px and nb:  # colour centres gate blobs too, whatever the continuity says
         col = np.array(list(obs.landmarks_px.values()), float)
         gated |= (np.sqrt(((col[:, None] - blobs[None]) ** 2).sum(-1)) <= cfg.gate_px).any(0)
-    blob_of_ugv = {ugv_ids[i]: int(free[j]) for i, j in asg.blob_of_landmark.items()}
+    blob_of_ugv = {to_assign[i]: int(free[j]) for i, j in asg.blob_of_landmark.items()}
     blob_of_ugv.update(labelled)
-    ugv_ids = sorted(ref)
     interval_start = t if new_interval else state.interval_start_s
 
     # landmark image coordinates
     lm_px: dict[str, np.ndarray] = {}
-    for u in ugv_ids:
+    for u in sorted(ref):
         colour = obs.landmarks_px.get(u)
         motion = blobs[blob_of_ugv[u]] if u in blob_of_ugv else None
         first, second = (motion, colour) if cfg.image_coordinates == "motion" else (colour, motion)

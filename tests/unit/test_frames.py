@@ -1,5 +1,7 @@
 """Frames on the bus and frame sources: codec round trips, refusals, a video file's own timeline."""
 
+import threading
+
 import cv2
 import numpy as np
 import pytest
@@ -59,10 +61,9 @@ def test_video_file_source_stamps_frames_on_its_own_timeline(tmp_path):
         vw.write(np.full((120, 160, 3), 20 * k, np.uint8))
     vw.release()
     clock = iter(np.arange(1000.0, 2000.0, 0.001))   # a host clock that barely moves
+    stop = threading.Event()
     with open_source(str(path), pace=False, clock=lambda: next(clock)) as src:
-        got = []
-        while (r := src.read()) is not None:
-            got.append(r)
+        got = list(src.stream(stop))
     assert len(got) == 10
     stamps = np.array([s for s, _ in got])
     np.testing.assert_allclose(np.diff(stamps), 0.05, atol=1e-9)   # 20 fps, whatever the host clock did
