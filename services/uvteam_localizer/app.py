@@ -23,6 +23,7 @@ from uvteam.config import VehicleConfig
 from uvteam.geo import LocalFrame
 from uvteam.localizer import FrameObservation, LocalizerConfig, LocalizerState, UgvTrack, localize_step
 from uvteam.messages import Crowd, Crowds, Detections, Fix, Plan, Status
+from uvteam.crowds import GroupingConfig, report_crowds
 from uvteam.service import StopFlag
 from uvteam.tracking import CrowdTracker
 
@@ -131,15 +132,13 @@ class LocalizerService:
         blobs = np.array([[b.x_px, b.y_px] for b in det.blobs]).reshape(-1, 2)
         boxes = np.array([[b.x0_px, b.y0_px, b.x1_px, b.y1_px] for b in det.blobs]).reshape(-1, 4)
         obs = FrameObservation(det.stamp_s, {lm.ugv: (lm.x_px, lm.y_px) for lm in det.landmarks}, blobs, boxes,
-                               tuple(b.ugv for b in det.blobs))
+                               tuple(b.ugv for b in det.blobs), np.array([b.area_px for b in det.blobs]))
         self.state, res = localize_step(self.state, obs, self.tracks(), cfg)
-        en = np.array([[c.east_m, c.north_m] for c in res.crowds]).reshape(-1, 2)
-        self.tracker, trk = self.tracker.update(en, det.stamp_s)
-        out = []
         # the longest-seen crowd first: a UGV that follows one crowd follows that one
-        for c, tr in sorted(zip(res.crowds, trk), key=lambda ct: (-ct[1].hits, ct[1].track_id)):
-            if tr.hits < lc.confirm_hits:
-                continue
+        self.tracker, reported = report_crowds(self.tracker, res.crowds, det.stamp_s, self.frame,
+                                               GroupingConfig(confirm_hits=lc.confirm_hits))
+        out = []
+        for c, tr in reported:
             out.append(Crowd(tr.track_id, c.lat_deg, c.lon_deg, tuple(map(float, c.footprint_latlon_deg[:, 0])),
                              tuple(map(float, c.footprint_latlon_deg[:, 1])), tr.v_east_m_s, tr.v_north_m_s,
                              c.radius95_m, c.quality.value, c.n_outliers))

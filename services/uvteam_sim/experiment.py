@@ -24,6 +24,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from uvteam.camera import PinholeCamera
+from uvteam.crowds import GroupingConfig, report_crowds
 from uvteam.detector_noise import localizer_sigmas_px
 from uvteam.localizer import FrameObservation, LocalizerConfig, LocalizerState, UgvTrack, localize_step
 from uvteam.planning import plan_stations
@@ -55,6 +56,7 @@ class RunResult:
     false_crowds: int = 0
     ugv_as_crowd: int = 0
     frames: int = 0
+    frame_log: list = field(default_factory=list)    # per frame: (t, true crowds, matched, reported)
 
 
 def _ugv_ids(sc: Scenario) -> list[str]:
@@ -141,7 +143,8 @@ def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinat
         pose = world.camera_pose()
         sf = sense(world, pose, T0 + t)
         obs = FrameObservation(T0 + t, {colour_to_id[c]: xy for c, xy in sf.landmarks.items()},
-                               sf.blob_xy_px, sf.blob_xyxy_px, tuple(colour_to_id.get(c, "") for c in sf.blob_colour))
+                               sf.blob_xy_px, sf.blob_xyxy_px, tuple(colour_to_id.get(c, "") for c in sf.blob_colour),
+                               sf.blob_area_px)
         tracks = {}
         for u in ids:
             if not fixes[u]:
@@ -155,11 +158,9 @@ def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinat
                 ps, pe = np.empty(0), np.empty((0, 2))  # its service is gone: no new plans either
             tracks[u] = UgvTrack(st, en, sg, ps, pe, vel)
         state, out = localize_step(state, obs, tracks, cfg)
-        en_now = np.array([[c.east_m, c.north_m] for c in out.crowds]).reshape(-1, 2)
-        tracker, trk = tracker.update(en_now, T0 + t)
-        confirmed = [(c, tr) for c, tr in zip(out.crowds, trk) if tr.hits >= CONFIRM_HITS]
+        tracker, confirmed = report_crowds(tracker, out.crowds, T0 + t, world.frame, GroupingConfig(confirm_hits=CONFIRM_HITS))
         if confirmed:
-            best = max(confirmed, key=lambda ct: (ct[1].hits, -ct[1].track_id))  # the longest-seen crowd
+            best = confirmed[0]  # the longest-seen crowd, as the UGV service follows
             crowd_est = (np.array([best[0].east_m, best[0].north_m]),
                          np.array([best[1].v_east_m_s, best[1].v_north_m_s]), t)
         # scoring
@@ -185,6 +186,7 @@ def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinat
                 ugv_d = np.sqrt(((world.ugv_p - rep[r_]) ** 2).sum(1)).min()
                 if ugv_d < 2.0:
                     res.ugv_as_crowd += 1
+        res.frame_log.append((t, len(tru), len(matched_tru), len(rep)))
         if t >= 1.0:
             res.truth_frames += len(tru)
             res.detected_frames += len(matched_tru)

@@ -50,7 +50,7 @@ class PixelDetector:
         alt_agl_m = pose.up_m - float(world.terrain_up_m(np.array([pose.east_m, pose.north_m]))[0])
         r = self.last_result = self.vision.update(frame, stamp_s, alt_agl_m)
         return SensorFrame(stamp_s, dict(r.landmarks_px), r.blobs.xy_px, r.blobs.xyxy_px,
-                           blob_kinds(world, pose, r.blobs.xy_px), r.blob_colour)
+                           blob_kinds(world, pose, r.blobs.xy_px), r.blob_colour, r.blobs.area_px)
 
 
 def blob_kinds(world: SimWorld, pose: CameraPose, xy_px: np.ndarray) -> tuple[str, ...]:

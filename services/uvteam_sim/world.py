@@ -56,6 +56,7 @@ class SensorFrame:
     blob_xyxy_px: np.ndarray
     blob_kind: tuple[str, ...]                   # "ugv:<colour>" | "crowd:<k>" | "false" (truth, for diagnostics)
     blob_colour: tuple[str, ...] = ()            # per blob: the roof colour the detector saw in it, or ""
+    blob_area_px: np.ndarray | None = None       # per blob: moving pixels (the pixel pipeline); None: unknown
 
 
 class SimWorld:

@@ -44,8 +44,8 @@ def detections_from(r: UavFrameResult, vehicle: str, seq: int, width_px: int, he
                     colors: dict[str, str]) -> Detections:
     """A pixel-pipeline result -> the Detections message (colours as UGV ids)."""
     b = r.blobs
-    blobs = tuple(Blob(float(c[0]), float(c[1]), *map(float, box), ugv=colors.get(col, ""))
-                  for c, box, col in zip(b.xy_px, b.xyxy_px, r.blob_colour))
+    blobs = tuple(Blob(float(c[0]), float(c[1]), *map(float, box), ugv=colors.get(col, ""), area_px=float(a))
+                  for c, box, col, a in zip(b.xy_px, b.xyxy_px, r.blob_colour, b.area_px))
     lms = tuple(Landmark(colors[c], float(x), float(y)) for c, (x, y) in r.landmarks_px.items() if c in colors)
     return Detections(vehicle, r.stamp_s, seq, width_px, height_px, alt_agl_m, lms, blobs)
 

@@ -64,6 +64,7 @@ class FrameObservation:
     blob_xy_px: np.ndarray                  # (N, 2) motion-blob centres
     blob_xyxy_px: np.ndarray                # (N, 4) motion-blob boxes
     blob_ugv: tuple[str, ...] = ()          # per blob: the UGV whose roof label the detector saw in it, or ""
+    blob_area_px: np.ndarray | None = None  # (N,) moving pixels per blob (weights parts of one crowd); None: 1 each
 
 
 @dataclass(frozen=True, slots=True)
@@ -119,6 +120,7 @@ class CrowdEstimate:
     radius95_m: float
     quality: FitQuality
     n_outliers: int
+    area_px: float = 1.0                    # the blob's moving pixels, from the detector
 
 
 @dataclass(frozen=True, slots=True)
@@ -184,6 +186,9 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: dict[str
     blobs = np.asarray(obs.blob_xy_px, float).reshape(-1, 2)
     boxes = np.asarray(obs.blob_xyxy_px, float).reshape(-1, 4)
     nb = len(blobs)
+    areas = np.ones(nb) if obs.blob_area_px is None else np.asarray(obs.blob_area_px, float).reshape(-1)
+    if len(areas) != nb:
+        raise ValueError(f"{len(areas)} blob areas for {nb} blobs")
 
     # 1. UGV ground positions at the frame time
     positions: dict[str, tuple[np.ndarray, float, str]] = {}
@@ -209,8 +214,11 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: dict[str
     gated = np.zeros(nb, bool)
     gated[free] = asg.gated_blobs
     gated[list(labelled.values())] = True
-    if obs.landmarks_px and nb:  # colour centres gate blobs too, whatever the continuity says
-        col = np.array(list(obs.landmarks_px.values()), float)
+    # colour centres gate blobs too, whatever the continuity says; but not those of UGVs the detector
+    # found a blob for: it carved that UGV out of whatever it drove through, so the rest is not the UGV
+    col = [xy for u, xy in obs.landmarks_px.items() if u not in labelled]
+    if col and nb:
+        col = np.array(col, float)
         gated |= (np.sqrt(((col[:, None] - blobs[None]) ** 2).sum(-1)) <= cfg.gate_px).any(0)
     blob_of_ugv = {to_assign[i]: int(free[j]) for i, j in asg.blob_of_landmark.items()}
     blob_of_ugv.update(labelled)
@@ -283,7 +291,7 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: dict[str
             for k in np.flatnonzero(finite).tolist():
                 j = targets[k]
                 crowds.append(CrowdEstimate(j, float(en[k, 0]), float(en[k, 1]), float(lat[k]), float(lon[k]),
-                                            fp_ll[k], float(r95[k]), quality, n_out))
+                                            fp_ll[k], float(r95[k]), quality, n_out, float(areas[j])))
 
     new_state = replace(
         state, interval_start_s=interval_start,

@@ -85,6 +85,7 @@ class Blob:
     v_x_px_s: float = 0.0
     v_y_px_s: float = 0.0
     ugv: str = ""           # the UGV this blob is, when the detector saw its roof label in it; else ""
+    area_px: float = 1.0    # moving pixels; the localizer weights the parts of one crowd by it
 
 
 @dataclass(frozen=True, slots=True)

@@ -2,7 +2,9 @@
 
 A pure state machine in the style of norfair's ``Tracker.update``: gated nearest-neighbour association
 (Hungarian on ground distance), an alpha-beta filter for position and velocity, tracks that miss
-``max_misses`` consecutive updates are dropped. No I/O, time passed in.
+``max_misses`` consecutive updates are dropped. Each track keeps a short trail of the estimates it was
+given (``trail_s``; unfiltered, so a frame in which two parts were seen as one leaves no mark on the
+others), from which :mod:`uvteam.crowds` tells two crowds from two parts of one. No I/O, time passed in.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ class CrowdTrack:
     stamp_s: float
     hits: int
     misses: int
+    trail: tuple[tuple[float, float, float], ...] = ()   # (stamp s, east m, north m) of recent estimates, oldest first
 
 
 @dataclass(frozen=True, slots=True)
@@ -34,6 +37,7 @@ class CrowdTracker:
     alpha: float = 0.4                  # at 10 Hz with ~0.5 m measurement noise: the velocity gain beta/dt
     beta: float = 0.05                  # (0.5 per m of residual) keeps the velocity within ~0.3 m/s
     max_misses: int = 10
+    trail_s: float = 3.0
     tracks: tuple[CrowdTrack, ...] = ()
     next_id: int = 1
 
@@ -53,8 +57,9 @@ class CrowdTracker:
                 r = en[j] - pred[i]
                 p = pred[i] + self.alpha * r
                 v = np.array([t.v_east_m_s, t.v_north_m_s]) + (self.beta / dt) * r
+                trail = tuple(s for s in t.trail if s[0] >= stamp_s - self.trail_s) + ((stamp_s, float(en[j, 0]), float(en[j, 1])),)
                 nt = replace(t, east_m=float(p[0]), north_m=float(p[1]), v_east_m_s=float(v[0]),
-                             v_north_m_s=float(v[1]), stamp_s=stamp_s, hits=t.hits + 1, misses=0)
+                             v_north_m_s=float(v[1]), stamp_s=stamp_s, hits=t.hits + 1, misses=0, trail=trail)
                 kept.append(nt)
                 out[j] = nt
             elif t.misses + 1 <= self.max_misses:
@@ -62,7 +67,8 @@ class CrowdTracker:
         nid = self.next_id
         for j in range(len(en)):
             if out[j] is None:
-                nt = CrowdTrack(nid, float(en[j, 0]), float(en[j, 1]), 0.0, 0.0, stamp_s, 1, 0)
+                nt = CrowdTrack(nid, float(en[j, 0]), float(en[j, 1]), 0.0, 0.0, stamp_s, 1, 0,
+                                ((stamp_s, float(en[j, 0]), float(en[j, 1])),))
                 nid += 1
                 kept.append(nt)
                 out[j] = nt

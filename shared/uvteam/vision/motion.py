@@ -14,7 +14,11 @@ Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale``
    pixel and opening the history instead (``"neighbours"``); a square closing of about one crowd spacing joins members
    into one blob; connected components with areas between the altitude-derived bounds (a person's footprint to
    the largest crowd) are the blobs; their centres are the centroids of this frame's moving pixels
-   (not of the whole history, whose centroid trails a moving crowd).
+   (not of the whole history, whose centroid trails a moving crowd);
+6. two crowds side by side (``split_px``): a blob is closed again with the finer kernel; when that
+   leaves two or more groups each big enough to be a crowd on its own (``min_area_px``), the blob is
+   split between them, every pixel going to the nearest group's centre. Stragglers and small groups,
+   which the finer kernel also cuts off, so stay with their crowd instead of being lost or reported.
 
 Sizes come from the altitude and the camera (:func:`bounds_for_altitude`), as the paper bounds blobs
 by size and velocity as functions of altitude. Time is passed in; nothing here reads a clock.
@@ -47,6 +51,7 @@ class MotionConfig:
     history_s: float = 0.4             # at most 2.5 s (the history counts in 10 ms steps, in a byte)
     compensate_max_scale: float = 0.5  # camera motion is fitted on a copy at most this scale of the input
     merge_px: int = 9                  # closing kernel (processed pixels): joins a crowd's members
+    split_px: int = 0                  # finer closing kernel (processed px) that tells crowds apart; 0: none
     open_px: int = 3                   # opening kernel: removes speckle
     min_area_px: float = 12.0          # full-resolution pixels
     max_area_px: float = 60_000.0
@@ -67,17 +72,19 @@ class MotionConfig:
 
 
 def bounds_for_altitude(alt_agl_m: float, focal_px: float, *, person_m: float = 0.5, spacing_m: float = 1.5,
-                        crowd_max_m: float = 40.0, base: MotionConfig = MotionConfig()) -> MotionConfig:
-    """Blob size bounds and the merging kernel from the altitude and the focal length (full-res px)."""
+                        crowd_max_m: float = 40.0, gap_m: float = 0.0, base: MotionConfig = MotionConfig()) -> MotionConfig:
+    """Blob size bounds and the merging kernel from the altitude and the focal length (full-res px);
+    ``gap_m`` > 0: the splitting kernel, the ground gap between two groups that are two crowds."""
     if not (alt_agl_m > 0 and focal_px > 0):
         raise ValueError(f"alt_agl_m and focal_px must be > 0, got {alt_agl_m}, {focal_px}")
     px_per_m = focal_px / alt_agl_m
     person_px = person_m * px_per_m
     merge = max(3, int(round(spacing_m * px_per_m * base.process_scale)) | 1)
+    split = max(3, int(round(gap_m * px_per_m * base.process_scale)) | 1) if gap_m > 0 else 0
     return MotionConfig(**{**{f: getattr(base, f) for f in base.__slots__},
                            "min_area_px": max(4.0, 0.5 * person_px * person_px),
                            "max_area_px": (crowd_max_m * px_per_m) ** 2,
-                           "merge_px": merge})
+                           "merge_px": merge, "split_px": min(split, merge)})
 
 
 @dataclass(frozen=True, slots=True)
@@ -154,6 +161,7 @@ class MotionDetector:
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
         # a square closing: it joins members up to merge_px apart, and costs the same at any size
         self._k_close = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.merge_px, cfg.merge_px))
+        self._k_split = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.split_px, cfg.split_px)) if cfg.split_px else None
 
     def reset(self) -> None:
         self._prev = self._prev_c = self._stamp_s = self._age = None
@@ -239,9 +247,12 @@ class MotionDetector:
         inv = 1.0 / s
         carve = np.empty((0, 2)) if carve_xy_px is None else (np.asarray(carve_xy_px, float).reshape(-1, 2) + 0.5) * s - 0.5
         r2 = (carve_radius_px * s) ** 2
+        comps = []
         for i in range(1, n):
             x, y, bw, bh, _ = stats[i]
             comp = labels[y:y + bh, x:x + bw] == i
+            comps.extend(self._split(comp, recent[y:y + bh, x:x + bw], x, y, carve, r2, inv))
+        for x, y, bw, bh, comp in comps:
             m = comp & (recent[y:y + bh, x:x + bw] > 0)       # the pixels that moved lately
             now = comp & (moving[y:y + bh, x:x + bw] > 0)
             parts = [(m, now, cfg.min_area_px, -1)]
@@ -256,7 +267,7 @@ class MotionDetector:
                 near = d2.min(0) <= r2
                 parts = []
                 shared = len(inside) > 1
-                if (m & ~near).sum() >= np.pi * r2:
+                if float((m & ~near).sum()) * inv * inv >= cfg.min_area_px:
                     parts.append((m & ~near, now & ~near, cfg.min_area_px, -1))
                     shared = True
                 for k, ci in enumerate(inside):
@@ -283,3 +294,42 @@ class MotionDetector:
                 carved.append(ci)
         return MotionBlobs(np.array(xy, float).reshape(-1, 2), np.array(boxes, float).reshape(-1, 4),
                            np.array(areas, float), n_tr, n_in, rms, np.array(carved, int))
+
+    def _split(self, comp: np.ndarray, recent: np.ndarray, x: int, y: int, carve: np.ndarray, r2: float,
+               inv: float) -> list[tuple[int, int, int, int, np.ndarray]]:
+        """One joined component (its box at x, y) as one or more crowds' components (step 6)."""
+        cfg = self.cfg
+        bh, bw = comp.shape
+        whole = [(x, y, bw, bh, comp)]
+        m = comp & (recent > 0)
+        if self._k_split is None or float(m.sum()) * inv * inv < 2 * cfg.min_area_px:
+            return whole
+        m8 = m.view(np.uint8) * np.uint8(255)
+        if r2 > 0 and len(carve):  # a vehicle is no crowd's core
+            gy, gx = np.mgrid[y:y + bh, x:x + bw]
+            for cx, cy in carve:
+                if x - 1 <= cx <= x + bw and y - 1 <= cy <= y + bh:
+                    m8[(gx - cx) ** 2 + (gy - cy) ** 2 <= r2] = 0
+        pad = cfg.split_px
+        fine = cv2.morphologyEx(cv2.copyMakeBorder(m8, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0),
+                                cv2.MORPH_CLOSE, self._k_split)[pad:-pad, pad:-pad]
+        k, lab = cv2.connectedComponents(fine, connectivity=8)
+        if k <= 2:
+            return whole
+        moved = np.bincount(lab[m8 > 0], minlength=k)[1:] * inv * inv
+        cores = np.flatnonzero(moved >= cfg.min_area_px) + 1
+        if len(cores) < 2:
+            return whole
+        ys, xs = np.nonzero(m8)
+        lm = lab[ys, xs]
+        cent = np.array([[xs[lm == c].mean(), ys[lm == c].mean()] for c in cores])
+        gy, gx = np.mgrid[0:bh, 0:bw]
+        owner = (((gx[None] - cent[:, 0, None, None]) ** 2 + (gy[None] - cent[:, 1, None, None]) ** 2)).argmin(0)
+        out = []
+        for c in range(len(cores)):
+            part = comp & (owner == c)
+            py, px = np.nonzero(part)
+            if len(py):
+                y0, y1, x0, x1 = py.min(), py.max() + 1, px.min(), px.max() + 1
+                out.append((x + int(x0), y + int(y0), int(x1 - x0), int(y1 - y0), part[y0:y1, x0:x1]))
+        return out

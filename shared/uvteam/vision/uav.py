@@ -32,6 +32,8 @@ class UavVisionConfig:
     vehicle_radius_m: float = 2.0             # a UGV with its shadow, around its roof label
     person_m: float = 0.5
     crowd_spacing_m: float = 4.0              # members this far apart still make one blob
+    crowd_gap_m: float = 1.5                  # two crowds, each big enough, this far apart are two: 2 m between
+                                              # members (the mingling distance of the scoring) less a person
     crowd_max_m: float = 40.0
     min_crowd_m2: float = 6.0                 # moving ground area of about three people in the history
     motion: MotionConfig = field(default_factory=lambda: MotionConfig(speckle="neighbours", max_corners=200, lk_window_px=15))
@@ -72,7 +74,7 @@ class UavVision:
         person_px = cfg.person_m * cfg.focal_px / alt_agl_m
         base = replace(cfg.motion, process_scale=1.0 if person_px * cfg.motion.process_scale < 3.0 else cfg.motion.process_scale)
         mc = bounds_for_altitude(alt_agl_m, cfg.focal_px, person_m=cfg.person_m, spacing_m=cfg.crowd_spacing_m,
-                                 crowd_max_m=cfg.crowd_max_m, base=base)
+                                 gap_m=cfg.crowd_gap_m, crowd_max_m=cfg.crowd_max_m, base=base)
         mc = replace(mc, min_area_px=max(mc.min_area_px, cfg.min_crowd_m2 * (cfg.focal_px / alt_agl_m) ** 2))
         self._motion = MotionDetector(mc)
         self._lm_cfg = landmark_config(cfg, alt_agl_m)

@@ -1,0 +1,113 @@
+"""From the localizer's per-frame estimates to the crowds the team is told about. Pure: no I/O, no clock.
+
+The motion detector cuts a blob in two where two groups, each big enough to be a crowd, walk a gap
+apart (:mod:`uvteam.vision.motion`, step 6), so two crowds that pass close by stay two. But one crowd
+can have such a gap inside it too. Which it is shows in how the parts move: the parts of one crowd
+keep their offset, two crowds drift together or apart. So each frame (:func:`report_crowds`):
+
+1. every estimate is tracked on the ground (:class:`uvteam.tracking.CrowdTracker`);
+2. estimates closer than ``near_m`` are parts of one crowd unless they move apart or together faster
+   than ``max_rel_speed_m_s``: the slope of a straight line fitted to their offset in the frames of
+   the last ``window_s`` in which both were seen (a part's centre jitters by up to a metre as members
+   cross between parts, so a slope over many frames, not two positions); parts not seen apart over
+   ``min_span_s`` of that window are one crowd;
+3. a crowd is the area-weighted mean of its parts (the detector's moving pixels), its footprint the box
+   round theirs, its 95 % radius the largest of theirs; it is reported under its longest-seen part's
+   track (id, velocity) once that part has been seen ``confirm_hits`` times.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .geo import LocalFrame
+from .localizer import CrowdEstimate
+from .tracking import CrowdTrack, CrowdTracker
+
+__all__ = ["GroupingConfig", "crowd_groups", "report_crowds"]
+
+
+@dataclass(frozen=True, slots=True)
+class GroupingConfig:
+    near_m: float = 12.0          # parts of one crowd lie within this of each other (centre to centre)
+    window_s: float = 4.0         # the offset's slope is fitted over this long
+    min_span_s: float = 1.0       # the frames in which both parts were seen must span this long
+    max_rel_speed_m_s: float = 0.4  # two parts moving apart or together faster than this are two crowds
+    significance: float = 4.0     # ... and by this many standard errors of the fitted slope
+    confirm_hits: int = 3         # a crowd is reported once its longest-seen part was seen this often
+
+    def __post_init__(self) -> None:
+        for name in ("near_m", "window_s", "min_span_s", "max_rel_speed_m_s"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+
+
+def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig = GroupingConfig()) -> list[int]:
+    """A group label per track (this frame's estimates): tracks with one label are one crowd."""
+    n = len(tracks)
+    parent = list(range(n))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    trails = [{round(s[0], 3): (s[1], s[2]) for s in t.trail} for t in tracks]
+    for i in range(n):
+        for j in range(i + 1, n):
+            a, b = tracks[i], tracks[j]
+            if np.hypot(a.east_m - b.east_m, a.north_m - b.north_m) >= cfg.near_m:
+                continue
+            if not _rel_speed_m_s(trails[i], trails[j], stamp_s, cfg) > cfg.max_rel_speed_m_s:  # NaN: one crowd
+                parent[root(j)] = root(i)
+    return [root(i) for i in range(n)]
+
+
+def _rel_speed_m_s(a: dict, b: dict, stamp_s: float, cfg: GroupingConfig) -> float:
+    """How fast the offset between two parts changes (NaN when they were not seen apart long enough)."""
+    both = [s for s in sorted(set(a) & set(b)) if s > stamp_s - cfg.window_s - 1e-6]
+    if len(both) < 5 or both[-1] - both[0] < cfg.min_span_s - 1e-6:
+        return float("nan")
+    t = np.array(both) - both[-1]
+    dist = np.array([np.hypot(*np.subtract(a[s], b[s])) for s in both])
+    tc = t - t.mean()
+    slope = (tc * (dist - dist.mean())).sum() / (tc ** 2).sum()
+    resid = dist - dist.mean() - slope * tc
+    stderr = np.sqrt((resid ** 2).sum() / (len(t) - 2) / (tc ** 2).sum())
+    return float(abs(slope)) if abs(slope) > cfg.significance * stderr else 0.0
+
+
+def _merge(frame: LocalFrame, parts: list[CrowdEstimate]) -> CrowdEstimate:
+    if len(parts) == 1:
+        return parts[0]
+    w = np.array([max(p.area_px, 1e-9) for p in parts])
+    w = w / w.sum()
+    east = float(np.dot(w, [p.east_m for p in parts]))
+    north = float(np.dot(w, [p.north_m for p in parts]))
+    lat, lon = frame.ground_to_wgs84(np.array([east]), np.array([north]))
+    corners = np.vstack([p.footprint_latlon_deg for p in parts])
+    (la0, lo0), (la1, lo1) = corners.min(0), corners.max(0)
+    biggest = max(parts, key=lambda p: p.area_px)
+    return replace(biggest, east_m=east, north_m=north, lat_deg=float(lat[0]), lon_deg=float(lon[0]),
+                   footprint_latlon_deg=np.array([[la1, lo0], [la1, lo1], [la0, lo1], [la0, lo0]]),
+                   radius95_m=max(p.radius95_m for p in parts), area_px=float(sum(p.area_px for p in parts)))
+
+
+def report_crowds(tracker: CrowdTracker, estimates: tuple[CrowdEstimate, ...], stamp_s: float, frame: LocalFrame,
+                  cfg: GroupingConfig = GroupingConfig()) -> tuple[CrowdTracker, list[tuple[CrowdEstimate, CrowdTrack]]]:
+    """Track this frame's estimates, join the parts of each crowd; the confirmed crowds, longest-seen first."""
+    en = np.array([[c.east_m, c.north_m] for c in estimates]).reshape(-1, 2)
+    tracker, trk = tracker.update(en, stamp_s)
+    groups: dict[int, list[int]] = {}
+    for k, g in enumerate(crowd_groups(trk, stamp_s, cfg)):
+        groups.setdefault(g, []).append(k)
+    out = []
+    for members in groups.values():
+        lead = min(members, key=lambda k: (-trk[k].hits, trk[k].track_id))
+        if trk[lead].hits >= cfg.confirm_hits:
+            out.append((_merge(frame, [estimates[k] for k in members]), trk[lead]))
+    out.sort(key=lambda ct: (-ct[1].hits, ct[1].track_id))
+    return tracker, out
