@@ -9,9 +9,10 @@ Per frame (:func:`localize_step`):
    the rest solved afresh at the start of each tracking interval from the colour
    centres; inside the interval the pairing is kept by continuity (each UGV's previous motion-blob
    centre predicts where its blob is now), so a UGV whose colour flickers keeps its blob.
-   Every blob within the gate of a landmark is a UGV, never a crowd; so is a blob whose box holds,
-   or whose centre is near, the projected position of a UGV that was seen neither by colour nor by
-   an assigned blob in this frame.
+   Every blob within the gate of a landmark is a UGV, never a crowd, unless the detector labelled
+   another blob as that UGV's (it carved the UGV out of a crowd it drove into: what is left beside
+   it is crowd); so is a blob whose box holds, or whose centre is near, the projected position of a
+   UGV that was seen neither by colour nor by an assigned blob in this frame.
 3. The transform from >= 4 usable landmarks: exact (4), least squares (> 4), robust with named
    outliers (>= 5). With fewer, the last good transform is held for ``hold_max_s`` and flagged HELD.
 4. Every remaining blob mapped to lat/lon (centre and box footprint) with a 95 % radius from the fit's

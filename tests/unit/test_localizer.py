@@ -175,3 +175,34 @@ def test_a_ugv_seen_by_colour_does_not_swallow_a_crowd_whose_box_holds_it():
     labelled = FrameObservation(1.0, obs.landmarks_px, blobs, boxes, ("red",) + ("",) * (len(blobs) - 1))
     _, out = localize_step(LocalizerState(), labelled, tracks, cfg())
     assert [c.blob_index for c in out.crowds] == [len(blobs) - 1]
+
+
+def test_a_crowd_beside_a_labelled_ugv_is_not_gated_by_its_colour():
+    # a UGV inside a crowd's edge: the detector carved it out (its own labelled blob), and the crowd's
+    # remaining blob is centred 15 px from the UGV's colour centre, inside the 25 px gate. The label
+    # says which blob is the UGV, so the crowd is still reported; without the label the colour gate
+    # (rightly, when nothing else is known) makes that blob the UGV's
+    ugvs = dict(UGVS)
+    ugvs["red"] = (2.5, 3.0)
+    tracks = {u: track_at(en) for u, en in ugvs.items()}
+    obs = observation(1.0, ugvs=ugvs)
+    blobs = obs.blob_xy_px.copy()
+    blobs[-1] = blobs[0] + (15.0, 0.0)
+    boxes = np.column_stack([blobs - 15, blobs + 15])
+    labels = ("red",) + ("",) * (len(blobs) - 1)
+    _, out = localize_step(LocalizerState(), FrameObservation(1.0, obs.landmarks_px, blobs, boxes, labels), tracks, cfg())
+    assert [c.blob_index for c in out.crowds] == [len(blobs) - 1]
+    _, out = localize_step(LocalizerState(), FrameObservation(1.0, obs.landmarks_px, blobs, boxes), tracks, cfg())
+    assert out.crowds == ()
+
+
+def test_blob_areas_reach_the_estimates_and_are_checked():
+    obs = observation(1.0)
+    tracks = {u: track_at(en) for u, en in UGVS.items()}
+    areas = np.arange(1.0, len(obs.blob_xy_px) + 1.0)
+    o = FrameObservation(1.0, obs.landmarks_px, obs.blob_xy_px, obs.blob_xyxy_px, (), areas)
+    _, out = localize_step(LocalizerState(), o, tracks, cfg())
+    assert [c.area_px for c in out.crowds] == [areas[-1]]
+    with pytest.raises(ValueError):
+        localize_step(LocalizerState(), FrameObservation(1.0, obs.landmarks_px, obs.blob_xy_px, obs.blob_xyxy_px, (),
+                                                         areas[:2]), tracks, cfg())

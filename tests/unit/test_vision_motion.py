@@ -142,3 +142,43 @@ def test_a_vehicle_driving_through_a_crowd_is_carved_out_and_labelled():
     vehicle = b.xy_px[b.carved == 0][0]
     assert np.hypot(*(vehicle - (vx, vy))) < 10
     assert np.hypot(*(crowd - (walkers.mean(0) + (4.0 * 5, 0.0)))) < 12
+
+
+def _walkers_frames(groups, steps=6, seed=4):
+    """A static camera over texture; each group is (centre xy, rows, cols, spacing px, velocity px/frame)."""
+    ground = texture(720, 1280, seed=seed)
+    for k in range(steps):
+        img = ground.copy()
+        for (cx, cy), rows, cols, sp, (vx, vy) in groups:
+            for i in range(cols):
+                for j in range(rows):
+                    x, y = cx + sp * (i - (cols - 1) / 2) + vx * k, cy + sp * (j - (rows - 1) / 2) + vy * k
+                    cv2.circle(img, (int(round(x)), int(round(y))), 6, (20, 20, 20), -1)
+        yield k, img
+
+
+@pytest.mark.parametrize("split_px, blobs", [(0, 1), (15, 2)])
+def test_two_crowds_a_gap_apart_are_split_only_with_the_finer_kernel(split_px, blobs):
+    # two 3x3 crowds (walkers 20 px apart) whose nearest members are 44 px apart: the 51 px merging
+    # kernel joins them; a 15 px splitting kernel keeps each crowd whole and the two apart
+    left, right = (500.0, 360.0), (500.0 + 40 + 44 + 4 * 6, 360.0)
+    cfg = MotionConfig(merge_px=51, split_px=split_px, min_area_px=300.0, speckle="neighbours", process_scale=1.0)
+    det = MotionDetector(cfg)
+    for k, img in _walkers_frames([(left, 3, 3, 20, (4.0, 0.0)), (right, 3, 3, 20, (4.0, 1.0))]):
+        b = det.update(img, 0.1 * k)
+    assert len(b) == blobs
+    if blobs == 2:
+        xs = sorted(b.xy_px[:, 0])
+        assert abs(xs[0] - (left[0] + 20)) < 8 and abs(xs[1] - (right[0] + 20)) < 8
+
+
+def test_stragglers_stay_with_their_crowd():
+    # a 3x3 crowd and, 44 px beyond its edge, two stragglers (too small to be a crowd of their own):
+    # one blob, and its centre counts the stragglers' pixels (pulled towards them)
+    cfg = MotionConfig(merge_px=51, split_px=15, min_area_px=800.0, speckle="neighbours", process_scale=1.0)
+    det = MotionDetector(cfg)
+    groups = [((500.0, 360.0), 3, 3, 20, (4.0, 0.0)), ((500.0 + 20 + 44 + 6, 360.0), 2, 1, 20, (4.0, 0.0))]
+    for k, img in _walkers_frames(groups):
+        b = det.update(img, 0.1 * k)
+    assert len(b) == 1
+    assert b.xy_px[0, 0] > 500.0 + 20 + 5   # the crowd alone would be centred at 520

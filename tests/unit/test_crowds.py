@@ -1,0 +1,78 @@
+"""Parts of one crowd are reported as one, two crowds as two (uvteam.crowds)."""
+
+import numpy as np
+import pytest
+
+from uvteam.crowds import GroupingConfig, crowd_groups, report_crowds
+from uvteam.geo import LocalFrame
+from uvteam.homography import FitQuality
+from uvteam.localizer import CrowdEstimate
+from uvteam.tracking import CrowdTracker
+
+FRAME = LocalFrame(31.485, -111.544, 1300.0)
+T0 = 1_700_000_000.0
+
+
+def estimate(e, n, area=1.0, r95=1.0):
+    lat, lon = FRAME.ground_to_wgs84(np.array([e - 1.0, e + 1.0]), np.array([n - 1.0, n + 1.0]))
+    fp = np.array([[lat[1], lon[0]], [lat[1], lon[1]], [lat[0], lon[1]], [lat[0], lon[0]]])
+    la, lo = FRAME.ground_to_wgs84(np.array([e]), np.array([n]))
+    return CrowdEstimate(0, float(e), float(n), float(la[0]), float(lo[0]), fp, r95, FitQuality.LEAST_SQUARES, 0, area)
+
+
+def run(parts_at, seconds=6.0, rate_hz=10.0, seed=0, jitter_m=0.3):
+    """Feed report_crowds each frame's parts: parts_at(t) -> [(east, north, area)], with centre jitter."""
+    rng = np.random.default_rng(seed)
+    tracker, out, counts = CrowdTracker(), [], []
+    for f in range(int(seconds * rate_hz)):
+        t = f / rate_hz
+        ests = tuple(estimate(e + rng.normal(0, jitter_m), n + rng.normal(0, jitter_m), a) for e, n, a in parts_at(t))
+        tracker, out = report_crowds(tracker, ests, T0 + t, FRAME)
+        counts.append(len(out))
+    run.counts = counts   # crowds reported per frame
+    return out
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_parts_moving_together_are_one_crowd(seed):
+    # a big part and a small one 6 m apart, walking together at 1.4 m/s, centres jittering 0.5 m:
+    # one crowd in every frame once confirmed
+    run(lambda t: [(1.4 * t, 0.0, 30.0), (1.4 * t + 6.0, 0.0, 6.0)], seconds=10.0, seed=seed, jitter_m=0.5)
+    assert set(run.counts[3:]) == {1}
+
+
+def test_one_crowd_is_reported_at_its_parts_area_weighted_centre():
+    out = run(lambda t: [(1.4 * t, 0.0, 30.0), (1.4 * t + 6.0, 0.0, 6.0)], jitter_m=0.0)
+    assert len(out) == 1
+    c, tr = out[0]
+    assert c.east_m == pytest.approx(1.4 * 5.9 + 6.0 * 6 / 36) and c.north_m == pytest.approx(0.0, abs=1e-9)
+    assert c.area_px == pytest.approx(36.0) and tr.hits == 60
+    la, lo = FRAME.ground_to_wgs84(np.array([c.east_m]), np.array([c.north_m]))
+    assert c.lat_deg == pytest.approx(la[0]) and c.lon_deg == pytest.approx(lo[0])
+
+
+def test_two_crowds_closing_in_are_two():
+    # 10 m apart and closing at 0.7 m/s: within near_m, but their distance changes -> two crowds
+    out = run(lambda t: [(0.0, 1.2 * t, 20.0), (10.0 - 0.7 * t, 1.2 * t, 10.0)])
+    assert len(out) == 2 and set(run.counts[-20:]) == {2}
+    east = sorted(c.east_m for c, _ in out)
+    assert abs(east[0] - 0.0) < 1.5 and abs(east[1] - (10.0 - 0.7 * 5.9)) < 1.5   # raw estimates, 0.3 m jitter
+
+
+def test_parts_seen_apart_too_briefly_are_one_crowd():
+    # the same two crowds, but the second part only appears for the last 0.5 s: too young to tell
+    out = run(lambda t: [(0.0, 0.0, 20.0)] + ([(6.0 - 0.7 * t, 0.0, 10.0)] if t >= 5.5 else []))
+    assert len(out) == 1
+
+
+def test_far_parts_are_separate_and_confirmation_counts_hits():
+    out = run(lambda t: [(0.0, 0.0, 1.0), (30.0, 0.0, 1.0)], seconds=0.2)  # two frames: not confirmed yet
+    assert out == []
+    out = run(lambda t: [(0.0, 0.0, 1.0), (30.0, 0.0, 1.0)], seconds=0.3)
+    assert len(out) == 2
+
+
+def test_groups_and_config_checks():
+    assert crowd_groups([], T0) == []
+    with pytest.raises(ValueError):
+        GroupingConfig(max_rel_speed_m_s=0.0)
