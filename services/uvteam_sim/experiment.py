@@ -57,6 +57,7 @@ class RunResult:
     ugv_as_crowd: int = 0
     frames: int = 0
     frame_log: list = field(default_factory=list)    # per frame: (t, true crowds, matched, reported)
+    false_log: list = field(default_factory=list)    # per false crowd: (t, east m, north m, distance to nearest UGV m)
 
 
 def _ugv_ids(sc: Scenario) -> list[str]:
@@ -186,6 +187,7 @@ def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinat
                 ugv_d = np.sqrt(((world.ugv_p - rep[r_]) ** 2).sum(1)).min()
                 if ugv_d < 2.0:
                     res.ugv_as_crowd += 1
+                res.false_log.append((t, float(rep[r_, 0]), float(rep[r_, 1]), float(ugv_d)))
         res.frame_log.append((t, len(tru), len(matched_tru), len(rep)))
         if t >= 1.0:
             res.truth_frames += len(tru)

@@ -31,7 +31,7 @@ __all__ = ["GroupingConfig", "crowd_groups", "report_crowds"]
 
 @dataclass(frozen=True, slots=True)
 class GroupingConfig:
-    near_m: float = 12.0          # parts of one crowd lie within this of each other (centre to centre)
+    near_m: float = 12.0          # parts of one crowd lie within this of each other (three crowd spreads)
     window_s: float = 4.0         # the offset's slope is fitted over this long
     min_span_s: float = 1.0       # the frames in which both parts were seen must span this long
     max_rel_speed_m_s: float = 0.4  # two parts moving apart or together faster than this are two crowds

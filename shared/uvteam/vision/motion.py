@@ -17,8 +17,10 @@ Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale``
    (not of the whole history, whose centroid trails a moving crowd);
 6. two crowds side by side (``split_px``): a blob is closed again with the finer kernel; when that
    leaves two or more groups each big enough to be a crowd on its own (``min_area_px``), the blob is
-   split between them, every pixel going to the nearest group's centre. Stragglers and small groups,
-   which the finer kernel also cuts off, so stay with their crowd instead of being lost or reported.
+   split between them, every pixel going to the nearest such group's centre. Smaller groups the
+   finer kernel cuts off (stragglers) are no crowd of their own: their pixels join the nearest crowd.
+   Whether two such groups are two crowds or one with a gap shows only over time, in how they move:
+   :mod:`uvteam.crowds` joins them again unless they drift apart or together.
 
 Sizes come from the altitude and the camera (:func:`bounds_for_altitude`), as the paper bounds blobs
 by size and velocity as functions of altitude. Time is passed in; nothing here reads a clock.
