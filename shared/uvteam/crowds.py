@@ -11,9 +11,10 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    the last ``window_s`` in which both were seen (a part's centre jitters by up to a metre as members
    cross between parts, so a slope over many frames, not two positions); parts not seen apart over
    ``min_span_s`` of that window are one crowd;
-3. a crowd is the area-weighted mean of its parts (the detector's moving pixels), its footprint the box
-   round theirs, its 95 % radius the largest of theirs; it is reported under its longest-seen part's
-   track (id, velocity) once that part has been seen ``confirm_hits`` times.
+3. only parts seen ``confirm_hits`` times take part (a blob of one frame neither is a crowd nor pulls
+   one); a crowd is the area-weighted mean of its parts (the detector's moving pixels), its footprint
+   the box round theirs, its 95 % radius the largest of theirs, reported under its longest-seen
+   part's track (id, velocity).
 """
 
 from __future__ import annotations
@@ -101,13 +102,13 @@ def report_crowds(tracker: CrowdTracker, estimates: tuple[CrowdEstimate, ...], s
     """Track this frame's estimates, join the parts of each crowd; the confirmed crowds, longest-seen first."""
     en = np.array([[c.east_m, c.north_m] for c in estimates]).reshape(-1, 2)
     tracker, trk = tracker.update(en, stamp_s)
+    confirmed = [k for k in range(len(trk)) if trk[k].hits >= cfg.confirm_hits]  # a one-frame blob joins nothing
     groups: dict[int, list[int]] = {}
-    for k, g in enumerate(crowd_groups(trk, stamp_s, cfg)):
+    for k, g in zip(confirmed, crowd_groups([trk[k] for k in confirmed], stamp_s, cfg)):
         groups.setdefault(g, []).append(k)
     out = []
     for members in groups.values():
         lead = min(members, key=lambda k: (-trk[k].hits, trk[k].track_id))
-        if trk[lead].hits >= cfg.confirm_hits:
-            out.append((_merge(frame, [estimates[k] for k in members]), trk[lead]))
+        out.append((_merge(frame, [estimates[k] for k in members]), trk[lead]))
     out.sort(key=lambda ct: (-ct[1].hits, ct[1].track_id))
     return tracker, out

@@ -76,3 +76,17 @@ def test_groups_and_config_checks():
     assert crowd_groups([], T0) == []
     with pytest.raises(ValueError):
         GroupingConfig(max_rel_speed_m_s=0.0)
+
+
+def test_a_blob_of_one_frame_does_not_pull_a_crowd():
+    # a crowd walking east and, every 7th frame, a spurious blob 8 m away, each time somewhere else
+    # (noise, a shadow): the crowd is reported where it is in every frame, never pulled towards one
+    spots = [(8.0, 0.0), (-6.0, 6.0), (0.0, -8.0)]
+    tracker = CrowdTracker()
+    for f in range(60):
+        t = f / 10.0
+        de, dn = spots[(f // 7) % 3]
+        ests = (estimate(1.4 * t, 0.0, 30.0),) + ((estimate(1.4 * t + de, dn, 30.0),) if f % 7 == 3 else ())
+        tracker, out = report_crowds(tracker, ests, T0 + t, FRAME)
+        if f >= 2:
+            assert len(out) == 1 and out[0][0].east_m == pytest.approx(1.4 * t)
