@@ -20,10 +20,10 @@ import numpy as np
 from uvteam import keys
 from uvteam.bus import ZenohBus
 from uvteam.config import VehicleConfig
+from uvteam.crowds import GroupingConfig, report_crowds
 from uvteam.geo import LocalFrame
 from uvteam.localizer import FrameObservation, LocalizerConfig, LocalizerState, UgvTrack, localize_step
 from uvteam.messages import Crowd, Crowds, Detections, Fix, Plan, Status
-from uvteam.crowds import GroupingConfig, report_crowds
 from uvteam.service import StopFlag
 from uvteam.tracking import CrowdTracker
 

@@ -90,3 +90,23 @@ def test_a_blob_of_one_frame_does_not_pull_a_crowd():
         tracker, out = report_crowds(tracker, ests, T0 + t, FRAME)
         if f >= 2:
             assert len(out) == 1 and out[0][0].east_m == pytest.approx(1.4 * t)
+
+
+def test_blob_areas_cross_the_wire_from_the_uav_pipeline():
+    # the UAV service's Detections carry each blob's moving pixels; a sender without them still decodes
+    from uvteam.messages import Blob, Detections, decode, encode
+    from uvteam.vision.motion import MotionBlobs
+    from uvteam.vision.uav import UavFrameResult
+    from uvteam_uav.app import detections_from
+
+    blobs = MotionBlobs(np.array([[10.0, 20.0], [30.0, 40.0]]), np.array([[0, 0, 20, 40], [20, 30, 40, 50.0]]),
+                        np.array([900.0, 150.0]), 100, 90, 0.3, np.array([-1, 0]))
+    r = UavFrameResult(T0, {"red": (30.0, 40.0)}, blobs, ("", "red"))
+    det = decode(Detections, encode(detections_from(r, "uav1", 1, 1280, 720, 50.0, {"red": "ugv1"})))
+    assert [b.area_px for b in det.blobs] == [900.0, 150.0] and [b.ugv for b in det.blobs] == ["", "ugv1"]
+    import msgpack
+    wire = msgpack.unpackb(encode(det))
+    for b in wire["data"]["blobs"]:
+        del b["area_px"]   # as a sender from before blob areas
+    old = decode(Detections, msgpack.packb(wire))
+    assert [b.area_px for b in old.blobs] == [1.0, 1.0] and Blob(1.0, 2.0, 0.0, 0.0, 3.0, 4.0).area_px == 1.0
