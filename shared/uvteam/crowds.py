@@ -6,11 +6,13 @@ can have such a gap inside it too. Which it is shows in how the parts move: the 
 keep their offset, two crowds drift together or apart. So each frame (:func:`report_crowds`):
 
 1. every estimate is tracked on the ground (:class:`uvteam.tracking.CrowdTracker`);
-2. estimates closer than ``near_m`` are parts of one crowd unless they move apart or together faster
-   than ``max_rel_speed_m_s``: the slope of a straight line fitted to their offset in the frames of
-   the last ``window_s`` in which both were seen (a part's centre jitters by up to a metre as members
-   cross between parts, so a slope over many frames, not two positions); parts not seen apart over
-   ``min_span_s`` of that window are one crowd;
+2. estimates closer than ``near_m`` are parts of one crowd, and so is a small part (``straggler_ratio``
+   of the other's moving pixels) whose footprint is within ``near_gap_m`` of a bigger one's, as the
+   walkers a UGV cuts off a crowd's edge; unless they move apart or together faster than
+   ``max_rel_speed_m_s``: the slope of a straight line fitted to the distance between them in the
+   frames of the last ``window_s`` in which both were seen, ``significance`` standard errors from
+   zero (a part's centre jitters by up to a metre as walkers cross between parts, so a slope over
+   many frames, not two positions); parts not seen apart over ``min_span_s`` are one crowd;
 3. only parts seen ``confirm_hits`` times take part (a blob of one frame neither is a crowd nor pulls
    one); a crowd is the area-weighted mean of its parts (the detector's moving pixels), its footprint
    the box round theirs, its 95 % radius the largest of theirs, reported under its longest-seen
@@ -38,6 +40,8 @@ class GroupingConfig:
     max_rel_speed_m_s: float = 0.4  # two parts moving apart or together faster than this are two crowds
     significance: float = 4.0     # ... and by this many standard errors of the fitted slope
     confirm_hits: int = 3         # a crowd is reported once its longest-seen part was seen this often
+    near_gap_m: float = 4.0       # ... or whose footprints are this close (the detector's crowd spacing), when
+    straggler_ratio: float = 0.4  # ... one has at most this fraction of the other's moving pixels
 
     def __post_init__(self) -> None:
         for name in ("near_m", "window_s", "min_span_s", "max_rel_speed_m_s"):
@@ -45,8 +49,10 @@ class GroupingConfig:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
 
 
-def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig = GroupingConfig()) -> list[int]:
-    """A group label per track (this frame's estimates): tracks with one label are one crowd."""
+def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig = GroupingConfig(),
+                 boxes_en: np.ndarray | None = None, areas: np.ndarray | None = None) -> list[int]:
+    """A group label per track (this frame's estimates): tracks with one label are one crowd.
+    ``boxes_en`` (n, 4): each estimate's footprint as east/north min/max; ``areas`` (n,): its moving pixels."""
     n = len(tracks)
     parent = list(range(n))
 
@@ -60,7 +66,12 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
     for i in range(n):
         for j in range(i + 1, n):
             a, b = tracks[i], tracks[j]
-            if np.hypot(a.east_m - b.east_m, a.north_m - b.north_m) >= cfg.near_m:
+            near = np.hypot(a.east_m - b.east_m, a.north_m - b.north_m) < cfg.near_m
+            if not near and boxes_en is not None and areas is not None \
+                    and min(areas[i], areas[j]) <= cfg.straggler_ratio * max(areas[i], areas[j]):
+                gap = np.maximum(0.0, np.maximum(boxes_en[i, :2] - boxes_en[j, 2:], boxes_en[j, :2] - boxes_en[i, 2:]))
+                near = bool(np.hypot(*gap) <= cfg.near_gap_m)
+            if not near:
                 continue
             if not _rel_speed_m_s(trails[i], trails[j], stamp_s, cfg) > cfg.max_rel_speed_m_s:  # NaN: one crowd
                 parent[root(j)] = root(i)
@@ -104,7 +115,14 @@ def report_crowds(tracker: CrowdTracker, estimates: tuple[CrowdEstimate, ...], s
     tracker, trk = tracker.update(en, stamp_s)
     confirmed = [k for k in range(len(trk)) if trk[k].hits >= cfg.confirm_hits]  # a one-frame blob joins nothing
     groups: dict[int, list[int]] = {}
-    for k, g in zip(confirmed, crowd_groups([trk[k] for k in confirmed], stamp_s, cfg)):
+    boxes = []
+    for k in confirmed:
+        fp = estimates[k].footprint_latlon_deg
+        e, n = frame.wgs84_to_ground(fp[:, 0], fp[:, 1])
+        boxes.append([e.min(), n.min(), e.max(), n.max()])
+    boxes_en = np.array(boxes, float).reshape(-1, 4)
+    areas = np.array([estimates[k].area_px for k in confirmed], float)
+    for k, g in zip(confirmed, crowd_groups([trk[k] for k in confirmed], stamp_s, cfg, boxes_en, areas)):
         groups.setdefault(g, []).append(k)
     out = []
     for members in groups.values():

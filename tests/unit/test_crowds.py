@@ -1,5 +1,7 @@
 """Parts of one crowd are reported as one, two crowds as two (uvteam.crowds)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -110,3 +112,21 @@ def test_blob_areas_cross_the_wire_from_the_uav_pipeline():
         del b["area_px"]   # as a sender from before blob areas
     old = decode(Detections, msgpack.packb(wire))
     assert [b.area_px for b in old.blobs] == [1.0, 1.0] and Blob(1.0, 2.0, 0.0, 0.0, 3.0, 4.0).area_px == 1.0
+
+
+def test_a_small_part_beside_a_crowds_edge_joins_it_a_big_one_does_not():
+    # a crowd (30 units of moving pixels, footprint +-7 m) and a part 12.5 m away, beyond near_m, its
+    # footprint (+-2 m) 3.5 m from the crowd's: a small part (6 units, a fifth) is walkers cut off the
+    # crowd's edge, so one crowd; a part as big as a crowd at the same place is a crowd of its own
+    def with_footprint(e, n, area, half):
+        la, lo = FRAME.ground_to_wgs84(np.array([e - half, e + half]), np.array([n - half, n + half]))
+        fp = np.array([[la[1], lo[0]], [la[1], lo[1]], [la[0], lo[1]], [la[0], lo[0]]])
+        return replace(estimate(e, n, area), footprint_latlon_deg=fp)
+
+    for area, crowds in ((6.0, 1), (25.0, 2)):
+        tracker = CrowdTracker()
+        for f in range(30):
+            t = f / 10.0
+            ests = (with_footprint(1.4 * t, 0.0, 30.0, 7.0), with_footprint(1.4 * t + 12.5, 0.0, area, 2.0))
+            tracker, out = report_crowds(tracker, ests, T0 + t, FRAME)
+        assert len(out) == crowds
