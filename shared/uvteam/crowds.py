@@ -35,18 +35,20 @@ __all__ = ["GroupingConfig", "crowd_groups", "report_crowds"]
 @dataclass(frozen=True, slots=True)
 class GroupingConfig:
     near_m: float = 12.0          # parts of one crowd lie within this of each other (three crowd spreads)
-    window_s: float = 4.0         # the offset's slope is fitted over this long
+    near_gap_m: float = 4.0       # ... or their footprints this close (the detector's crowd spacing), when
+    straggler_ratio: float = 0.4  # ... one has at most this fraction of the other's moving pixels
+    window_s: float = 4.0         # the distance between two parts is fitted over this long
     min_span_s: float = 1.0       # the frames in which both parts were seen must span this long
     max_rel_speed_m_s: float = 0.4  # two parts moving apart or together faster than this are two crowds
     significance: float = 4.0     # ... and by this many standard errors of the fitted slope
     confirm_hits: int = 3         # a crowd is reported once its longest-seen part was seen this often
-    near_gap_m: float = 4.0       # ... or whose footprints are this close (the detector's crowd spacing), when
-    straggler_ratio: float = 0.4  # ... one has at most this fraction of the other's moving pixels
 
     def __post_init__(self) -> None:
         for name in ("near_m", "window_s", "min_span_s", "max_rel_speed_m_s"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if not (0.0 <= self.straggler_ratio <= 1.0 and self.near_gap_m >= 0.0 and self.significance >= 0.0):
+            raise ValueError("straggler_ratio must be in [0, 1], near_gap_m and significance >= 0")
 
 
 def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig = GroupingConfig(),
@@ -79,7 +81,8 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
 
 
 def _rel_speed_m_s(a: dict, b: dict, stamp_s: float, cfg: GroupingConfig) -> float:
-    """How fast the offset between two parts changes (NaN when they were not seen apart long enough)."""
+    """How fast the distance between two parts changes, m/s (0 when not significant; NaN when they were
+    not seen apart long enough)."""
     both = [s for s in sorted(set(a) & set(b)) if s > stamp_s - cfg.window_s - 1e-6]
     if len(both) < 5 or both[-1] - both[0] < cfg.min_span_s - 1e-6:
         return float("nan")
