@@ -307,10 +307,10 @@ class MotionDetector:
         if self._k_split is None or float(m.sum()) * inv * inv < 2 * cfg.min_area_px:
             return whole
         m8 = m.view(np.uint8) * np.uint8(255)
+        gy, gx = np.mgrid[0:bh, 0:bw]
         if r2 > 0 and len(carve):  # a vehicle is no crowd's core
-            gy, gx = np.mgrid[y:y + bh, x:x + bw]
-            for cx, cy in carve:
-                if x - 1 <= cx <= x + bw and y - 1 <= cy <= y + bh:
+            for cx, cy in carve - (x, y):
+                if -1 <= cx <= bw and -1 <= cy <= bh:
                     m8[(gx - cx) ** 2 + (gy - cy) ** 2 <= r2] = 0
         pad = cfg.split_px
         fine = cv2.morphologyEx(cv2.copyMakeBorder(m8, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0),
@@ -325,7 +325,6 @@ class MotionDetector:
         ys, xs = np.nonzero(m8)
         lm = lab[ys, xs]
         cent = np.array([[xs[lm == c].mean(), ys[lm == c].mean()] for c in cores])
-        gy, gx = np.mgrid[0:bh, 0:bw]
         owner = (((gx[None] - cent[:, 0, None, None]) ** 2 + (gy[None] - cent[:, 1, None, None]) ** 2)).argmin(0)
         out = []
         for c in range(len(cores)):
