@@ -20,12 +20,11 @@ import numpy as np
 from uvteam import keys
 from uvteam.bus import ZenohBus
 from uvteam.config import VehicleConfig
-from uvteam.crowds import GroupingConfig, report_crowds
+from uvteam.crowds import GroupingConfig, GroupingState, report_crowds
 from uvteam.geo import LocalFrame
 from uvteam.localizer import FrameObservation, LocalizerConfig, LocalizerState, UgvTrack, localize_step
 from uvteam.messages import Crowd, Crowds, Detections, Fix, Plan, Status
 from uvteam.service import StopFlag
-from uvteam.tracking import CrowdTracker
 
 log = logging.getLogger("uvteam.localizer")
 
@@ -43,7 +42,7 @@ class LocalizerService:
         self._lock = threading.Lock()
         self.frames: queue.Queue = queue.Queue(maxsize=8)
         self.state = LocalizerState()
-        self.tracker = CrowdTracker()
+        self.grouping = GroupingState()
         self.published = 0
         self.step_us: deque = deque(maxlen=1000)
         self.last_quality = "none"
@@ -135,7 +134,7 @@ class LocalizerService:
                                tuple(b.ugv for b in det.blobs), np.array([b.area_px for b in det.blobs]))
         self.state, res = localize_step(self.state, obs, self.tracks(), cfg)
         # the longest-seen crowd first: a UGV that follows one crowd follows that one
-        self.tracker, reported = report_crowds(self.tracker, res.crowds, det.stamp_s, self.frame,
+        self.grouping, reported = report_crowds(self.grouping, res.crowds, det.stamp_s, self.frame,
                                                GroupingConfig(confirm_hits=lc.confirm_hits))
         out = []
         for c, tr in reported:

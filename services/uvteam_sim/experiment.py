@@ -24,12 +24,11 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from uvteam.camera import PinholeCamera
-from uvteam.crowds import GroupingConfig, report_crowds
+from uvteam.crowds import GroupingConfig, GroupingState, report_crowds
 from uvteam.detector_noise import localizer_sigmas_px
 from uvteam.localizer import FrameObservation, LocalizerConfig, LocalizerState, UgvTrack, localize_step
 from uvteam.planning import plan_stations
 from uvteam.scenario import Scenario, load_scenario
-from uvteam.tracking import CrowdTracker
 
 from .world import SimWorld
 
@@ -90,7 +89,7 @@ def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinat
     fixes = {u: deque(maxlen=64) for u in ids}
     plans: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     pending: list[tuple[float, int, float, np.ndarray, float]] = []
-    state, tracker = LocalizerState(), CrowdTracker()
+    state, grouping = LocalizerState(), GroupingState()
     res = RunResult(sc.name, seed)
     dt_frame = 1.0 / sc.run.frame_rate_hz
     dt_fix = 1.0 / sc.gnss.fix_rate_hz
@@ -159,7 +158,7 @@ def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinat
                 ps, pe = np.empty(0), np.empty((0, 2))  # its service is gone: no new plans either
             tracks[u] = UgvTrack(st, en, sg, ps, pe, vel)
         state, out = localize_step(state, obs, tracks, cfg)
-        tracker, confirmed = report_crowds(tracker, out.crowds, T0 + t, world.frame, GroupingConfig(confirm_hits=CONFIRM_HITS))
+        grouping, confirmed = report_crowds(grouping, out.crowds, T0 + t, world.frame, GroupingConfig(confirm_hits=CONFIRM_HITS))
         if confirmed:
             best = confirmed[0]  # the longest-seen crowd, as the UGV service follows
             crowd_est = (np.array([best[0].east_m, best[0].north_m]),

@@ -13,7 +13,12 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    frames of the last ``window_s`` in which both were seen, ``significance`` standard errors from
    zero (a part's centre jitters by up to a metre as walkers cross between parts, so a slope over
    many frames, not two positions); parts not seen apart over ``min_span_s`` are one crowd;
-3. only parts seen ``confirm_hits`` times take part (a blob of one frame neither is a crowd nor pulls
+3. what is learnt sticks while both tracks live (:class:`GroupingState`): parts once ``apart_m`` or more
+   apart, or moving apart or together in ``apart_frames`` frames in a row, stay two crowds. Two crowds
+   that close in slowly, or part again after walking as one blob, are then not joined by a frame in
+   which their drift is not (yet) significant; a single significant frame, which one crowd's jittering
+   parts do show now and then, latches nothing;
+4. only parts seen ``confirm_hits`` times take part (a blob of one frame neither is a crowd nor pulls
    one); a crowd is the area-weighted mean of its parts (the detector's moving pixels), its footprint
    the box round theirs, its 95 % radius the largest of theirs, reported under its longest-seen
    part's track (id, velocity).
@@ -21,7 +26,8 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -29,7 +35,7 @@ from .geo import LocalFrame
 from .localizer import CrowdEstimate
 from .tracking import CrowdTrack, CrowdTracker
 
-__all__ = ["GroupingConfig", "crowd_groups", "report_crowds"]
+__all__ = ["GroupingConfig", "GroupingState", "crowd_groups", "report_crowds"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,6 +48,8 @@ class GroupingConfig:
     max_rel_speed_m_s: float = 0.4  # two parts moving apart or together faster than this are two crowds
     significance: float = 4.0     # ... and by this many standard errors of the fitted slope
     confirm_hits: int = 3         # a crowd is reported once its longest-seen part was seen this often
+    apart_m: float = 18.0         # parts once this far apart are two crowds while both are tracked,
+    apart_frames: int = 5         # ... and so are parts whose distance changed significantly this many frames in a row
 
     def __post_init__(self) -> None:
         for name in ("near_m", "window_s", "min_span_s", "max_rel_speed_m_s"):
@@ -49,14 +57,33 @@ class GroupingConfig:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         if not (0.0 <= self.straggler_ratio <= 1.0 and self.near_gap_m >= 0.0 and self.significance >= 0.0):
             raise ValueError("straggler_ratio must be in [0, 1], near_gap_m and significance >= 0")
+        if not (self.apart_m >= self.near_m and self.apart_frames >= 1):
+            raise ValueError(f"apart_m must be >= near_m and apart_frames >= 1, got {self.apart_m}, {self.apart_frames}")
+
+
+Pair = tuple[int, int]   # two track ids, the smaller first
+
+
+@dataclass(frozen=True, slots=True)
+class GroupingState:
+    """What :func:`report_crowds` carries from frame to frame; never mutated, each frame makes a new one."""
+    tracker: CrowdTracker = field(default_factory=CrowdTracker)
+    apart: frozenset[Pair] = frozenset()                        # pairs of tracks known to be two crowds
+    streak: Mapping[Pair, int] = field(default_factory=dict)    # frames in a row each pair's distance changed
 
 
 def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig = GroupingConfig(),
-                 boxes_en: np.ndarray | None = None, areas: np.ndarray | None = None) -> list[int]:
+                 boxes_en: np.ndarray | None = None, areas: np.ndarray | None = None,
+                 apart: frozenset[Pair] = frozenset(), streak: Mapping[Pair, int] | None = None
+                 ) -> tuple[list[int], frozenset[Pair], dict[Pair, int]]:
     """A group label per track (this frame's estimates): tracks with one label are one crowd.
-    ``boxes_en`` (n, 4): each estimate's footprint as east/north min/max; ``areas`` (n,): its moving pixels."""
+    ``boxes_en`` (n, 4): each estimate's footprint as east/north min/max; ``areas`` (n,): its moving pixels;
+    ``apart``, ``streak``: what earlier frames learnt (:class:`GroupingState`). Returns the labels and
+    the pairs known apart and the streaks after this frame."""
     n = len(tracks)
     parent = list(range(n))
+    apart = set(apart)
+    old_streak, new_streak = dict(streak or {}), {}
 
     def root(i: int) -> int:
         while parent[i] != i:
@@ -68,16 +95,27 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
     for i in range(n):
         for j in range(i + 1, n):
             a, b = tracks[i], tracks[j]
-            near = np.hypot(a.east_m - b.east_m, a.north_m - b.north_m) < cfg.near_m
+            pair = (min(a.track_id, b.track_id), max(a.track_id, b.track_id))
+            if pair in apart:
+                continue
+            dist = np.hypot(a.east_m - b.east_m, a.north_m - b.north_m)
+            near = dist < cfg.near_m
             if not near and boxes_en is not None and areas is not None \
                     and min(areas[i], areas[j]) <= cfg.straggler_ratio * max(areas[i], areas[j]):
                 gap = np.maximum(0.0, np.maximum(boxes_en[i, :2] - boxes_en[j, 2:], boxes_en[j, :2] - boxes_en[i, 2:]))
                 near = bool(np.hypot(*gap) <= cfg.near_gap_m)
             if not near:
+                if dist >= cfg.apart_m:
+                    apart.add(pair)
                 continue
-            if not _rel_speed_m_s(trails[i], trails[j], stamp_s, cfg) > cfg.max_rel_speed_m_s:  # NaN: one crowd
+            if _rel_speed_m_s(trails[i], trails[j], stamp_s, cfg) > cfg.max_rel_speed_m_s:
+                new_streak[pair] = old_streak.get(pair, 0) + 1
+                if new_streak[pair] >= cfg.apart_frames:
+                    apart.add(pair)
+                    del new_streak[pair]
+            else:                          # not significant, or NaN (not seen apart long enough): one crowd
                 parent[root(j)] = root(i)
-    return [root(i) for i in range(n)]
+    return [root(i) for i in range(n)], frozenset(apart), new_streak
 
 
 def _rel_speed_m_s(a: dict, b: dict, stamp_s: float, cfg: GroupingConfig) -> float:
@@ -111,11 +149,11 @@ def _merge(frame: LocalFrame, parts: list[CrowdEstimate]) -> CrowdEstimate:
                    radius95_m=max(p.radius95_m for p in parts), area_px=float(sum(p.area_px for p in parts)))
 
 
-def report_crowds(tracker: CrowdTracker, estimates: tuple[CrowdEstimate, ...], stamp_s: float, frame: LocalFrame,
-                  cfg: GroupingConfig = GroupingConfig()) -> tuple[CrowdTracker, list[tuple[CrowdEstimate, CrowdTrack]]]:
+def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], stamp_s: float, frame: LocalFrame,
+                  cfg: GroupingConfig = GroupingConfig()) -> tuple[GroupingState, list[tuple[CrowdEstimate, CrowdTrack]]]:
     """Track this frame's estimates, join the parts of each crowd; the confirmed crowds, longest-seen first."""
     en = np.array([[c.east_m, c.north_m] for c in estimates]).reshape(-1, 2)
-    tracker, trk = tracker.update(en, stamp_s)
+    tracker, trk = state.tracker.update(en, stamp_s)
     confirmed = [k for k in range(len(trk)) if trk[k].hits >= cfg.confirm_hits]  # a one-frame blob joins nothing
     groups: dict[int, list[int]] = {}
     boxes = []
@@ -125,11 +163,15 @@ def report_crowds(tracker: CrowdTracker, estimates: tuple[CrowdEstimate, ...], s
         boxes.append([e.min(), n.min(), e.max(), n.max()])
     boxes_en = np.array(boxes, float).reshape(-1, 4)
     areas = np.array([estimates[k].area_px for k in confirmed], float)
-    for k, g in zip(confirmed, crowd_groups([trk[k] for k in confirmed], stamp_s, cfg, boxes_en, areas)):
+    labels, apart, streak = crowd_groups([trk[k] for k in confirmed], stamp_s, cfg, boxes_en, areas,
+                                         state.apart, state.streak)
+    for k, g in zip(confirmed, labels):
         groups.setdefault(g, []).append(k)
     out = []
     for members in groups.values():
         lead = min(members, key=lambda k: (-trk[k].hits, trk[k].track_id))
         out.append((_merge(frame, [estimates[k] for k in members]), trk[lead]))
     out.sort(key=lambda ct: (-ct[1].hits, ct[1].track_id))
-    return tracker, out
+    live = {t.track_id for t in tracker.tracks}   # a pair is forgotten once either of its tracks is dropped
+    apart = frozenset(p for p in apart if p[0] in live and p[1] in live)
+    return GroupingState(tracker, apart, streak), out

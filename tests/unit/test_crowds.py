@@ -5,11 +5,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from uvteam.crowds import GroupingConfig, crowd_groups, report_crowds
+from uvteam.crowds import GroupingConfig, GroupingState, crowd_groups, report_crowds
 from uvteam.geo import LocalFrame
 from uvteam.homography import FitQuality
 from uvteam.localizer import CrowdEstimate
-from uvteam.tracking import CrowdTracker
 
 FRAME = LocalFrame(31.485, -111.544, 1300.0)
 T0 = 1_700_000_000.0
@@ -22,16 +21,17 @@ def estimate(e, n, area=1.0, r95=1.0):
     return CrowdEstimate(0, float(e), float(n), float(la[0]), float(lo[0]), fp, r95, FitQuality.LEAST_SQUARES, 0, area)
 
 
-def run(parts_at, seconds=6.0, rate_hz=10.0, seed=0, jitter_m=0.3):
+def run(parts_at, seconds=6.0, rate_hz=10.0, seed=0, jitter_m=0.3, cfg=GroupingConfig()):
     """Feed report_crowds each frame's parts: parts_at(t) -> [(east, north, area)], with centre jitter."""
     rng = np.random.default_rng(seed)
-    tracker, out, counts = CrowdTracker(), [], []
+    state, out, counts = GroupingState(), [], []
     for f in range(int(seconds * rate_hz)):
         t = f / rate_hz
         ests = tuple(estimate(e + rng.normal(0, jitter_m), n + rng.normal(0, jitter_m), a) for e, n, a in parts_at(t))
-        tracker, out = report_crowds(tracker, ests, T0 + t, FRAME)
+        state, out = report_crowds(state, ests, T0 + t, FRAME, cfg)
         counts.append(len(out))
     run.counts = counts   # crowds reported per frame
+    run.state = state
     return out
 
 
@@ -75,21 +75,25 @@ def test_far_parts_are_separate_and_confirmation_counts_hits():
 
 
 def test_groups_and_config_checks():
-    assert crowd_groups([], T0) == []
+    assert crowd_groups([], T0) == ([], frozenset(), {})
     with pytest.raises(ValueError):
         GroupingConfig(max_rel_speed_m_s=0.0)
+    with pytest.raises(ValueError):
+        GroupingConfig(apart_m=10.0)      # less than near_m
+    with pytest.raises(ValueError):
+        GroupingConfig(apart_frames=0)
 
 
 def test_a_blob_of_one_frame_does_not_pull_a_crowd():
     # a crowd walking east and, every 7th frame, a spurious blob 8 m away, each time somewhere else
     # (noise, a shadow): the crowd is reported where it is in every frame, never pulled towards one
     spots = [(8.0, 0.0), (-6.0, 6.0), (0.0, -8.0)]
-    tracker = CrowdTracker()
+    state = GroupingState()
     for f in range(60):
         t = f / 10.0
         de, dn = spots[(f // 7) % 3]
         ests = (estimate(1.4 * t, 0.0, 30.0),) + ((estimate(1.4 * t + de, dn, 30.0),) if f % 7 == 3 else ())
-        tracker, out = report_crowds(tracker, ests, T0 + t, FRAME)
+        state, out = report_crowds(state, ests, T0 + t, FRAME)
         if f >= 2:
             assert len(out) == 1 and out[0][0].east_m == pytest.approx(1.4 * t)
 
@@ -124,9 +128,41 @@ def test_a_small_part_beside_a_crowds_edge_joins_it_a_big_one_does_not():
         return replace(estimate(e, n, area), footprint_latlon_deg=fp)
 
     for area, crowds in ((6.0, 1), (25.0, 2)):
-        tracker = CrowdTracker()
+        state = GroupingState()
         for f in range(30):
             t = f / 10.0
             ests = (with_footprint(1.4 * t, 0.0, 30.0, 7.0), with_footprint(1.4 * t + 12.5, 0.0, area, 2.0))
-            tracker, out = report_crowds(tracker, ests, T0 + t, FRAME)
+            state, out = report_crowds(state, ests, T0 + t, FRAME)
         assert len(out) == crowds
+
+
+def test_two_crowds_once_far_apart_stay_two_when_they_close_in_slowly():
+    # 20 m apart, closing at 0.3 m/s (below max_rel_speed_m_s): once within near_m their drift proves
+    # nothing, but they were seen as two crowds before, so they stay two; parts first seen near stay one
+    out = run(lambda t: [(0.0, 1.2 * t, 20.0), (20.0 - 0.3 * t, 1.2 * t, 10.0)], seconds=40.0)
+    assert run.counts[-1] == 2 and min(run.counts[3:]) == 2 and len(run.state.apart) == 1
+    assert min(abs(c.east_m - 8.0) for c, _ in out) < 1.0          # 8 m apart at the end: within near_m
+    run(lambda t: [(0.0, 1.2 * t, 20.0), (8.0, 1.2 * t, 10.0)], seconds=10.0)
+    assert set(run.counts[3:]) == {1}
+    # nothing learnt without it: the same approach with apart_m out of reach joins them within near_m
+    run(lambda t: [(0.0, 1.2 * t, 20.0), (20.0 - 0.3 * t, 1.2 * t, 10.0)], seconds=40.0,
+        cfg=GroupingConfig(apart_m=1e6))
+    assert run.counts[-1] == 1
+
+
+def test_parts_seen_drifting_apart_for_several_frames_stay_two_when_the_drift_stops():
+    # two crowds parting at 1 m/s for 3 s, then walking on side by side 9 m apart (within near_m, no
+    # drift): the drift was significant for apart_frames in a row, so they stay two
+    sep = lambda t: 6.0 + min(t, 3.0)                                          # noqa: E731
+    run(lambda t: [(1.4 * t, 0.0, 20.0), (1.4 * t + sep(t), 0.0, 10.0)], seconds=12.0, jitter_m=0.2)
+    assert set(run.counts[-60:]) == {2} and len(run.state.apart) == 1
+    # latching needs frames in a row: with apart_frames beyond the drift's length nothing latches, and
+    # once their distance stops changing the parts are joined again
+    run(lambda t: [(1.4 * t, 0.0, 20.0), (1.4 * t + sep(t), 0.0, 10.0)], seconds=12.0, jitter_m=0.2,
+        cfg=GroupingConfig(apart_frames=1000))
+    assert run.counts[-1] == 1 and run.state.apart == frozenset()
+
+
+def test_a_pair_is_forgotten_when_one_of_its_tracks_is_dropped():
+    run(lambda t: [(0.0, 0.0, 20.0)] + ([(25.0, 0.0, 10.0)] if t < 1.0 else []), seconds=3.0)
+    assert run.state.apart == frozenset() and len(run.state.tracker.tracks) == 1

@@ -15,10 +15,12 @@ Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale``
    into one blob; connected components with areas between the altitude-derived bounds (a person's footprint to
    the largest crowd) are the blobs; their centres are the centroids of this frame's moving pixels
    (not of the whole history, whose centroid trails a moving crowd);
-6. two crowds side by side (``split_px``): a blob is closed again with the finer kernel; when that
-   leaves two or more groups each big enough to be a crowd on its own (``min_area_px``), the blob is
-   split between them, every pixel going to the nearest such group's centre. Smaller groups the
-   finer kernel cuts off (stragglers) are no crowd of their own: their pixels join the nearest crowd.
+6. two crowds side by side (``split_px``): a blob is closed again with finer kernels, the coarsest
+   first (``split_px`` times ``split_scales``); the first that leaves two or more groups each big enough
+   to be a crowd on its own (``min_area_px``) splits the blob between them, every pixel going to the
+   nearest such group's centre. Smaller groups (stragglers) are no crowd of their own: their pixels join
+   the nearest crowd. The coarser kernels keep a small, loose crowd whole where the finest one breaks it
+   into pieces each too small to count, which then joined the big crowd beside it.
    Whether two such groups are two crowds or one with a gap shows only over time, in how they move:
    :mod:`uvteam.crowds` joins them again unless they drift apart or together.
 
@@ -54,6 +56,7 @@ class MotionConfig:
     compensate_max_scale: float = 0.5  # camera motion is fitted on a copy at most this scale of the input
     merge_px: int = 9                  # closing kernel (processed pixels): joins a crowd's members
     split_px: int = 0                  # finer closing kernel (processed px) that tells crowds apart; 0: none
+    split_scales: tuple[float, ...] = (2.0, 1.5, 1.0)  # split_px times these, coarsest first (step 6)
     open_px: int = 3                   # opening kernel: removes speckle
     min_area_px: float = 12.0          # full-resolution pixels
     max_area_px: float = 60_000.0
@@ -69,6 +72,8 @@ class MotionConfig:
             raise ValueError(f"speckle must be 'open' or 'neighbours', got {self.speckle!r}")
         if self.model not in ("homography", "affine"):
             raise ValueError(f"model must be 'homography' or 'affine', got {self.model!r}")
+        if not (self.split_scales and all(f >= 1.0 for f in self.split_scales)):
+            raise ValueError(f"split_scales must be factors >= 1 of split_px, got {self.split_scales}")
         if not 0.05 <= self.process_scale <= 1.0:
             raise ValueError(f"process_scale must be in [0.05, 1], got {self.process_scale}")
 
@@ -163,7 +168,10 @@ class MotionDetector:
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
         # a square closing: it joins members up to merge_px apart, and costs the same at any size
         self._k_close = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.merge_px, cfg.merge_px))
-        self._k_split = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.split_px, cfg.split_px)) if cfg.split_px else None
+        # the splitting kernels, coarsest first, each finer than the merging one
+        sizes = sorted({max(3, min(cfg.merge_px - 2, int(round(cfg.split_px * f)) | 1)) for f in cfg.split_scales},
+                       reverse=True) if cfg.split_px else []
+        self._k_splits = [cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)) for k in sizes]
 
     def reset(self) -> None:
         self._prev = self._prev_c = self._stamp_s = self._age = None
@@ -304,7 +312,7 @@ class MotionDetector:
         bh, bw = comp.shape
         whole = [(x, y, bw, bh, comp)]
         m = comp & (recent > 0)
-        if self._k_split is None or float(m.sum()) * inv * inv < 2 * cfg.min_area_px:
+        if not self._k_splits or float(m.sum()) * inv * inv < 2 * cfg.min_area_px:
             return whole
         m8 = m.view(np.uint8) * np.uint8(255)
         gy, gx = np.mgrid[0:bh, 0:bw]
@@ -312,15 +320,18 @@ class MotionDetector:
             for cx, cy in carve - (x, y):
                 if -1 <= cx <= bw and -1 <= cy <= bh:
                     m8[(gx - cx) ** 2 + (gy - cy) ** 2 <= r2] = 0
-        pad = cfg.split_px
-        fine = cv2.morphologyEx(cv2.copyMakeBorder(m8, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0),
-                                cv2.MORPH_CLOSE, self._k_split)[pad:-pad, pad:-pad]
-        k, lab = cv2.connectedComponents(fine, connectivity=8)
-        if k <= 2:
-            return whole
-        moved = np.bincount(lab[m8 > 0], minlength=k)[1:] * inv * inv
-        cores = np.flatnonzero(moved >= cfg.min_area_px) + 1
-        if len(cores) < 2:
+        for ker in self._k_splits:
+            pad = ker.shape[0]
+            fine = cv2.morphologyEx(cv2.copyMakeBorder(m8, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0),
+                                    cv2.MORPH_CLOSE, ker)[pad:-pad, pad:-pad]
+            k, lab = cv2.connectedComponents(fine, connectivity=8)
+            if k <= 2:
+                continue
+            moved = np.bincount(lab[m8 > 0], minlength=k)[1:] * inv * inv
+            cores = np.flatnonzero(moved >= cfg.min_area_px) + 1
+            if len(cores) >= 2:
+                break
+        else:
             return whole
         ys, xs = np.nonzero(m8)
         lm = lab[ys, xs]
