@@ -184,19 +184,21 @@ def test_stragglers_stay_with_their_crowd():
     assert b.xy_px[0, 0] > 500.0 + 20 + 5   # the crowd alone would be centred at 520
 
 
-@pytest.mark.parametrize("scales, blobs", [((1.0,), 1), ((2.0, 1.5, 1.0), 2)])
-def test_a_loose_crowd_beside_a_dense_one_is_split_off_by_a_coarser_splitting_kernel(scales, blobs):
+@pytest.mark.parametrize("scales, vehicle, blobs", [((1.0,), False, 1), ((2.0, 1.5, 1.0), False, 2),
+                                                    ((2.0, 1.5, 1.0), True, 1)])
+def test_a_loose_crowd_beside_a_dense_one_is_split_off_by_a_coarser_splitting_kernel(scales, vehicle, blobs):
     # a dense 3x3 crowd and, 44 px beyond its edge, a loose 2x2 one (walkers 34 px apart, 22 px between
     # them): the finest splitting kernel (15 px) breaks the loose crowd into walkers each too small to be
     # a crowd, which then join the dense one; the coarser 31 px kernel holds it together, still short of
-    # the 44 px gap, so the two crowds are two blobs
+    # the 44 px gap, so the two crowds are two blobs. With a vehicle in the blob (here in the gap, where
+    # nothing moves) only the finest kernel splits: walkers a vehicle cuts off are no crowd of their own
     cfg = MotionConfig(merge_px=51, split_px=15, split_scales=scales, min_area_px=800.0, speckle="neighbours",
                        process_scale=1.0)
     det = MotionDetector(cfg)
     loose = (500.0 + 26 + 44 + 6 + 17, 360.0)
     for k, img in _walkers_frames([((500.0, 360.0), 3, 3, 20, (4.0, 0.0)), (loose, 2, 2, 34, (4.0, 0.0))]):
-        b = det.update(img, 0.1 * k)
-    assert len(b) == blobs
+        b = det.update(img, 0.1 * k, np.array([[548.0 + 4 * k, 360.0]]) if vehicle else None, 10.0)
+    assert len(b) == blobs and not (b.carved >= 0).any()
     if blobs == 2:
         assert abs(sorted(b.xy_px[:, 0])[1] - (loose[0] + 20)) < 8   # 5 frames at 4 px/frame
 

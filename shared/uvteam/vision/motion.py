@@ -316,11 +316,15 @@ class MotionDetector:
             return whole
         m8 = m.view(np.uint8) * np.uint8(255)
         gy, gx = np.mgrid[0:bh, 0:bw]
-        if r2 > 0 and len(carve):  # a vehicle is no crowd's core
+        kernels = self._k_splits
+        # a vehicle is no crowd's core; with one in the blob only the finest kernel splits it: removing
+        # the vehicle cuts off the walkers beyond it, which a coarser kernel would make a crowd of their own
+        if r2 > 0 and len(carve):
             for cx, cy in carve - (x, y):
                 if -1 <= cx <= bw and -1 <= cy <= bh:
                     m8[(gx - cx) ** 2 + (gy - cy) ** 2 <= r2] = 0
-        for ker in self._k_splits:
+                    kernels = self._k_splits[-1:]
+        for ker in kernels:
             pad = ker.shape[0]
             fine = cv2.morphologyEx(cv2.copyMakeBorder(m8, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0),
                                     cv2.MORPH_CLOSE, ker)[pad:-pad, pad:-pad]
