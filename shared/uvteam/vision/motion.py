@@ -20,7 +20,8 @@ Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale``
    to be a crowd on its own (``min_area_px``) splits the blob between them, every pixel going to the
    nearest such group's centre. Smaller groups (stragglers) are no crowd of their own: their pixels join
    the nearest crowd. The coarser kernels keep a small, loose crowd whole where the finest one breaks it
-   into pieces each too small to count, which then joined the big crowd beside it.
+   into pieces each too small to count, which then joined the big crowd beside it. A blob with a
+   vehicle in it is split by the finest kernel only (the walkers a vehicle cuts off are no crowd).
    Whether two such groups are two crowds or one with a gap shows only over time, in how they move:
    :mod:`uvteam.crowds` joins them again unless they drift apart or together.
 
