@@ -83,7 +83,7 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
     n = len(tracks)
     parent = list(range(n))
     apart = set(apart)
-    old_streak, new_streak = dict(streak or {}), {}
+    streak, new_streak = streak or {}, {}
 
     def root(i: int) -> int:
         while parent[i] != i:
@@ -109,7 +109,7 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
                     apart.add(pair)
                 continue
             if _rel_speed_m_s(trails[i], trails[j], stamp_s, cfg) > cfg.max_rel_speed_m_s:
-                new_streak[pair] = old_streak.get(pair, 0) + 1
+                new_streak[pair] = streak.get(pair, 0) + 1
                 if new_streak[pair] >= cfg.apart_frames:
                     apart.add(pair)
                     del new_streak[pair]

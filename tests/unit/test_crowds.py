@@ -1,7 +1,5 @@
 """Parts of one crowd are reported as one, two crowds as two (uvteam.crowds)."""
 
-from dataclasses import replace
-
 import numpy as np
 import pytest
 
@@ -14,8 +12,9 @@ FRAME = LocalFrame(31.485, -111.544, 1300.0)
 T0 = 1_700_000_000.0
 
 
-def estimate(e, n, area=1.0, r95=1.0):
-    lat, lon = FRAME.ground_to_wgs84(np.array([e - 1.0, e + 1.0]), np.array([n - 1.0, n + 1.0]))
+def estimate(e, n, area=1.0, r95=1.0, half=1.0):
+    """A crowd estimate at (e, n) with a square footprint of half-side ``half`` m."""
+    lat, lon = FRAME.ground_to_wgs84(np.array([e - half, e + half]), np.array([n - half, n + half]))
     fp = np.array([[lat[1], lon[0]], [lat[1], lon[1]], [lat[0], lon[1]], [lat[0], lon[0]]])
     la, lo = FRAME.ground_to_wgs84(np.array([e]), np.array([n]))
     return CrowdEstimate(0, float(e), float(n), float(la[0]), float(lo[0]), fp, r95, FitQuality.LEAST_SQUARES, 0, area)
@@ -122,16 +121,11 @@ def test_a_small_part_beside_a_crowds_edge_joins_it_a_big_one_does_not():
     # a crowd (30 units of moving pixels, footprint +-7 m) and a part 12.5 m away, beyond near_m, its
     # footprint (+-2 m) 3.5 m from the crowd's: a small part (6 units, a fifth) is walkers cut off the
     # crowd's edge, so one crowd; a part as big as a crowd at the same place is a crowd of its own
-    def with_footprint(e, n, area, half):
-        la, lo = FRAME.ground_to_wgs84(np.array([e - half, e + half]), np.array([n - half, n + half]))
-        fp = np.array([[la[1], lo[0]], [la[1], lo[1]], [la[0], lo[1]], [la[0], lo[0]]])
-        return replace(estimate(e, n, area), footprint_latlon_deg=fp)
-
     for area, crowds in ((6.0, 1), (25.0, 2)):
         state = GroupingState()
         for f in range(30):
             t = f / 10.0
-            ests = (with_footprint(1.4 * t, 0.0, 30.0, 7.0), with_footprint(1.4 * t + 12.5, 0.0, area, 2.0))
+            ests = (estimate(1.4 * t, 0.0, 30.0, half=7.0), estimate(1.4 * t + 12.5, 0.0, area, half=2.0))
             state, out = report_crowds(state, ests, T0 + t, FRAME)
         assert len(out) == crowds
 
