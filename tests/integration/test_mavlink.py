@@ -34,7 +34,8 @@ def test_position_with_capture_time(pair):
     assert wait_for(lambda: link._boot_offset_s is not None)  # SYSTEM_TIME seen
     cap = time.time() - 0.25  # captured 250 ms ago (latency)
     ap.send_position(cap, 31.4851, -111.5441, 1301.0, 1.0, 123.4, 1.5, -0.5, 0.8)
-    assert wait_for(lambda: link.state() is not None)
+    # position (GLOBAL_POSITION_INT) and its accuracy (GPS_RAW_INT) are two messages: wait for both
+    assert wait_for(lambda: link.state() is not None and link.state().h_acc_m is not None)
     st = link.state()
     assert st.stamp_source == "autopilot" and abs(st.stamp_s - cap) < 0.005
     assert st.lat_deg == pytest.approx(31.4851, abs=1e-7) and st.lon_deg == pytest.approx(-111.5441, abs=1e-7)
