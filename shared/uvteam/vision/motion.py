@@ -3,7 +3,10 @@
 Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale`` for speed:
 
 1. corners on the previous frame (goodFeaturesToTrack) followed into the current one by pyramidal
-   Lucas-Kanade, checked forward-backward;
+   Lucas-Kanade, checked forward-backward; corners are not taken where the previous frame's blobs were
+   (walkers and vehicles are the sharpest corners in view, and a fit that counts a walker's pixel of
+   motion as an inlier leaves the ground misregistered by a pixel, which high-contrast ground such as
+   rocks turns into crescents of false motion), unless too few corners are left outside them;
 2. the camera's motion between the frames fitted robustly (RANSAC homography, or a partial affine
    transform) and the previous frame warped onto the current one;
 3. absolute difference, threshold, restricted to pixels both frames see;
@@ -38,6 +41,7 @@ import numpy as np
 
 MIN_VEHICLE_AREA_PX = 4.0   # a carved vehicle's blob only needs to be more than noise
 AGE_UNIT_S = 0.01           # the motion history's time step
+MIN_MASKED_CORNERS = 30     # fewer corners outside the blobs than this: take them anywhere
 
 __all__ = ["MotionConfig", "MotionBlobs", "MotionDetector", "bounds_for_altitude", "compensate"]
 
@@ -117,9 +121,19 @@ class MotionBlobs:
         return len(self.area_px)
 
 
-def compensate(prev: np.ndarray, curr: np.ndarray, cfg: MotionConfig) -> tuple[np.ndarray | None, int, int, float]:
-    """Camera motion prev -> curr as a 3x3 matrix (None when it cannot be fitted), tracked, inliers, rms."""
-    p0 = cv2.goodFeaturesToTrack(prev, cfg.max_corners, cfg.corner_quality, cfg.corner_min_distance_px, blockSize=5)
+def compensate(prev: np.ndarray, curr: np.ndarray, cfg: MotionConfig, mask: np.ndarray | None = None
+               ) -> tuple[np.ndarray | None, int, int, float]:
+    """Camera motion prev -> curr as a 3x3 matrix (None when it cannot be fitted), tracked, inliers, rms.
+    ``mask`` (uint8, prev's shape): corners only where it is non-zero, unless that leaves fewer than
+    ``MIN_MASKED_CORNERS``."""
+    p0 = None
+    if mask is not None:
+        p0 = cv2.goodFeaturesToTrack(prev, cfg.max_corners, cfg.corner_quality, cfg.corner_min_distance_px,
+                                     mask=mask, blockSize=5)
+        if p0 is not None and len(p0) < MIN_MASKED_CORNERS:
+            p0 = None
+    if p0 is None:
+        p0 = cv2.goodFeaturesToTrack(prev, cfg.max_corners, cfg.corner_quality, cfg.corner_min_distance_px, blockSize=5)
     if p0 is None or len(p0) < 8:
         return None, 0, 0, float("nan")
     lk = dict(winSize=(cfg.lk_window_px, cfg.lk_window_px), maxLevel=cfg.lk_levels,
@@ -166,6 +180,7 @@ class MotionDetector:
         self._prev_c: np.ndarray | None = None
         self._stamp_s: float | None = None
         self._age: np.ndarray | None = None
+        self._busy: np.ndarray | None = None   # the previous frame's blobs, widened: no corners there
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
         # a square closing: it joins members up to merge_px apart, and costs the same at any size
         self._k_close = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.merge_px, cfg.merge_px))
@@ -175,15 +190,16 @@ class MotionDetector:
         self._k_splits = [cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)) for k in sizes]
 
     def reset(self) -> None:
-        self._prev = self._prev_c = self._stamp_s = self._age = None
+        self._prev = self._prev_c = self._stamp_s = self._age = self._busy = None
 
     def update(self, frame: np.ndarray, stamp_s: float, carve_xy_px: np.ndarray | None = None,
                carve_radius_px: float = 0.0) -> MotionBlobs:
         """Blobs moving in ``frame``. ``carve_xy_px`` (full-resolution points, e.g. colour-detected
         vehicles) split a blob that holds one of them and is more than the carved disc: the moving
         pixels within ``carve_radius_px`` of the point become a blob of their own, the rest another, so
-        a vehicle driving through a crowd neither hides the crowd nor is reported as part of it; such a
-        vehicle's blob is centred on its point, since its pixels are mixed with the crowd's. A blob
+        a vehicle driving through a crowd neither hides the crowd nor is reported as part of it; what is
+        left is a crowd only if one group of it is crowd-sized on its own (not the trails of two vehicles
+        side by side). Such a vehicle's blob is centred on its point, since its pixels are mixed with the crowd's. A blob
         that is a vehicle's (carved, or holding its point with no more than a vehicle's worth) says
         which point in ``MotionBlobs.carved``, and needs no crowd-sized area."""
         cfg = self.cfg
@@ -197,10 +213,16 @@ class MotionDetector:
         prev_c, self._prev_c = self._prev_c, curr_c
         dt_s = stamp_s - self._stamp_s if self._stamp_s is not None else 0.0
         self._stamp_s = stamp_s
+        busy, self._busy = self._busy, None
         if prev is None or prev.shape != curr.shape:
             self._age = np.full(curr.shape, 255, np.uint8)
             return MotionBlobs.empty()
-        M, n_tr, n_in, rms = compensate(prev_c, curr_c, cfg)
+        free = None
+        if busy is not None:
+            free = cv2.bitwise_not(busy)
+            if free.shape != prev_c.shape:
+                free = cv2.resize(free, prev_c.shape[::-1], interpolation=cv2.INTER_NEAREST)
+        M, n_tr, n_in, rms = compensate(prev_c, curr_c, cfg, free)
         if M is None:
             self._age[:] = 255  # lost registration: the history is no longer aligned
             return MotionBlobs.empty(n_tr, n_in, rms)
@@ -241,6 +263,8 @@ class MotionDetector:
             moving &= recent
         self._age = age
         joined = cv2.morphologyEx(recent, cv2.MORPH_CLOSE, self._k_close)
+        # the next frame takes no corners on what moves (a corner half a kernel from a blob is on it)
+        self._busy = cv2.dilate(joined, self._k_close)
         if cfg.merge_px >= 8 and h >= 64 and w >= 64:
             # blobs joined over >= 8 px do not need full resolution to be told apart: label a 2x2
             # max-pooled copy (4x fewer pixels), then carry the labels back to the full mask
@@ -271,14 +295,14 @@ class MotionDetector:
             inside = [ci for ci, (cx, cy) in enumerate(carve) if x <= cx < x + bw and y <= cy < y + bh] if r2 > 0 else []
             if inside:
                 # each pixel within the radius of a vehicle's point is that (nearest) vehicle's; what is
-                # left is a crowd only if it is more than a vehicle's worth, else the vehicles' trail
+                # left is a crowd only if one group of it is crowd-sized, else the vehicles' trails
                 gy, gx = np.mgrid[y:y + bh, x:x + bw]
                 d2 = np.stack([(gx - carve[ci, 0]) ** 2 + (gy - carve[ci, 1]) ** 2 for ci in inside])
                 nearest = d2.argmin(0)
                 near = d2.min(0) <= r2
                 parts = []
                 shared = len(inside) > 1
-                if float((m & ~near).sum()) * inv * inv >= cfg.min_area_px:
+                if self._holds_crowd(m & ~near, inv):
                     parts.append((m & ~near, now & ~near, cfg.min_area_px, -1))
                     shared = True
                 for k, ci in enumerate(inside):
@@ -305,6 +329,19 @@ class MotionDetector:
                 carved.append(ci)
         return MotionBlobs(np.array(xy, float).reshape(-1, 2), np.array(boxes, float).reshape(-1, 4),
                            np.array(areas, float), n_tr, n_in, rms, np.array(carved, int))
+
+    def _holds_crowd(self, rest: np.ndarray, inv: float) -> bool:
+        """Whether what is left of a blob once its vehicles are carved out is a crowd: one group of it,
+        joined as crowd members are, has a crowd's area on its own. Two vehicles side by side each leave
+        their trail beyond the carved disc; together they can make a crowd's area, apart neither does."""
+        if float(rest.sum()) * inv * inv < self.cfg.min_area_px:
+            return False
+        r8 = rest.view(np.uint8) * np.uint8(255)
+        pad = self._k_close.shape[0]
+        joined = cv2.morphologyEx(cv2.copyMakeBorder(r8, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0),
+                                  cv2.MORPH_CLOSE, self._k_close)[pad:-pad, pad:-pad]
+        k, lab = cv2.connectedComponents(joined, connectivity=8)
+        return bool(k > 1 and np.bincount(lab[rest], minlength=k)[1:].max() * inv * inv >= self.cfg.min_area_px)
 
     def _split(self, comp: np.ndarray, recent: np.ndarray, x: int, y: int, carve: np.ndarray, r2: float,
                inv: float) -> list[tuple[int, int, int, int, np.ndarray]]:
