@@ -18,7 +18,13 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    that close in slowly, or part again after walking as one blob, are then not joined by a frame in
    which their drift is not (yet) significant; a single significant frame, which one crowd's jittering
    parts do show now and then, latches nothing;
-4. only parts seen ``confirm_hits`` times take part (a blob of one frame neither is a crowd nor pulls
+4. two crowds known apart whose blobs become one (one of them unseen, its predicted centre inside the
+   footprint of a blob that holds the other's too) are remembered as one track holding a second crowd
+   (:attr:`GroupingState.holds`). When a part later appears beside that track (within ``near_m``, first
+   seen after the merge), it is that crowd coming out again: two crowds at once, with no wait for a
+   drift to show (which took ``min_span_s`` plus ``apart_frames`` frames, in which the crowds were
+   reported as one);
+5. only parts seen ``confirm_hits`` times take part (a blob of one frame neither is a crowd nor pulls
    one); a crowd is the area-weighted mean of its parts (the detector's moving pixels), its footprint
    the box round theirs, its 95 % radius the largest of theirs, reported under its longest-seen
    part's track (id, velocity).
@@ -49,7 +55,7 @@ class GroupingConfig:
     significance: float = 4.0     # ... and by this many standard errors of the fitted slope
     confirm_hits: int = 3         # a crowd is reported once its longest-seen part was seen this often
     apart_m: float = 18.0         # parts once this far apart are two crowds while both are tracked,
-    apart_frames: int = 5         # ... and so are parts whose distance changed significantly this many frames in a row
+    apart_frames: int = 10        # ... and so are parts whose distance changed significantly this many frames in a row
 
     def __post_init__(self) -> None:
         for name in ("near_m", "window_s", "min_span_s", "max_rel_speed_m_s"):
@@ -70,6 +76,7 @@ class GroupingState:
     tracker: CrowdTracker = field(default_factory=CrowdTracker)
     apart: frozenset[Pair] = frozenset()                        # pairs of tracks known to be two crowds
     streak: Mapping[Pair, int] = field(default_factory=dict)    # frames in a row each pair's distance changed
+    holds: Mapping[int, tuple[float, ...]] = field(default_factory=dict)  # per track, when it took in each other crowd
 
 
 def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig = GroupingConfig(),
@@ -154,17 +161,34 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     """Track this frame's estimates, join the parts of each crowd; the confirmed crowds, longest-seen first."""
     en = np.array([[c.east_m, c.north_m] for c in estimates]).reshape(-1, 2)
     tracker, trk = state.tracker.update(en, stamp_s)
-    confirmed = [k for k in range(len(trk)) if trk[k].hits >= cfg.confirm_hits]  # a one-frame blob joins nothing
-    groups: dict[int, list[int]] = {}
     boxes = []
-    for k in confirmed:
-        fp = estimates[k].footprint_latlon_deg
+    for c in estimates:
+        fp = c.footprint_latlon_deg
         e, n = frame.wgs84_to_ground(fp[:, 0], fp[:, 1])
         boxes.append([e.min(), n.min(), e.max(), n.max()])
-    boxes_en = np.array(boxes, float).reshape(-1, 4)
+    boxes_all = np.array(boxes, float).reshape(-1, 4)
+    holds = _merged(state, tracker, trk, boxes_all, stamp_s)
+    confirmed = [k for k in range(len(trk)) if trk[k].hits >= cfg.confirm_hits]  # a one-frame blob joins nothing
+    apart = set(state.apart)
+    live = {t.track_id: t for t in tracker.tracks}
+    for x, since in list(holds.items()):    # crowds coming out of the blob that took them in
+        if not since:
+            continue
+        t = live[x]
+        at = (t.east_m + t.v_east_m_s * (stamp_s - t.stamp_s), t.north_m + t.v_north_m_s * (stamp_s - t.stamp_s))
+        # the blob's own track if seen, and parts first seen since the merge beside where it is
+        out_of = [trk[k].track_id for k in confirmed if trk[k].track_id == x or (
+            trk[k].first_s > since[0] and np.hypot(trk[k].east_m - at[0], trk[k].north_m - at[1]) < cfg.near_m)]
+        for y in out_of[1:]:
+            pair = (min(out_of[0], y), max(out_of[0], y))
+            if pair not in apart and since:
+                apart.add(pair)
+                since = holds[x] = since[:-1]
+    groups: dict[int, list[int]] = {}
+    boxes_en = boxes_all[confirmed].reshape(-1, 4)
     areas = np.array([estimates[k].area_px for k in confirmed], float)
     labels, apart, streak = crowd_groups([trk[k] for k in confirmed], stamp_s, cfg, boxes_en, areas,
-                                         state.apart, state.streak)
+                                         frozenset(apart), state.streak)
     for k, g in zip(confirmed, labels):
         groups.setdefault(g, []).append(k)
     out = []
@@ -174,4 +198,39 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     out.sort(key=lambda ct: (-ct[1].hits, ct[1].track_id))
     live = {t.track_id for t in tracker.tracks}   # a pair is forgotten once either of its tracks is dropped
     apart = frozenset(p for p in apart if p[0] in live and p[1] in live)
-    return GroupingState(tracker, apart, streak), out
+    return GroupingState(tracker, apart, streak, {x: v for x, v in holds.items() if v and x in live}), out
+
+
+def _merged(state: GroupingState, tracker: CrowdTracker, trk: list[CrowdTrack], boxes_en: np.ndarray,
+            stamp_s: float) -> dict[int, tuple[float, ...]]:
+    """:attr:`GroupingState.holds` after this frame's merges: a pair known apart, one or both of them
+    unseen for the first time, whose predicted centres both lie in one estimate's footprint (``boxes_en``,
+    per estimate ``trk``): that estimate's track now holds both crowds, and what the unseen ones held.
+    A holding track unseen for the first time hands what it holds to the one new track whose footprint
+    holds its predicted centre."""
+    prev = {t.track_id: t for t in state.tracker.tracks}
+    live = {t.track_id: t for t in tracker.tracks}
+    holds = {x: v for x, v in state.holds.items() if x in live}
+
+    def holding(ids: tuple[int, ...]) -> np.ndarray:
+        """The estimates whose footprints hold the predicted centres of all these tracks."""
+        p = np.array([[prev[y].east_m + prev[y].v_east_m_s * (stamp_s - prev[y].stamp_s),
+                       prev[y].north_m + prev[y].v_north_m_s * (stamp_s - prev[y].stamp_s)] for y in ids])
+        return np.flatnonzero(((boxes_en[:, None, :2] <= p[None]) & (p[None] <= boxes_en[:, None, 2:])).all((1, 2)))
+
+    for x in [x for x in holds if live[x].misses == 1]:   # the blob's centre jumped: a new track goes on with it
+        new = [k for k in holding((x,)) if trk[k].hits == 1]
+        if len(new) == 1:
+            holds[trk[new[0]].track_id] = holds.pop(x)
+    for a, b in sorted(state.apart):
+        gone = [y for y in (a, b) if y in live and live[y].misses == 1]
+        if not gone or any(y not in live for y in (a, b)):
+            continue
+        inside = holding((a, b))
+        if len(inside):
+            x = trk[int(inside[0])].track_id
+            taken = tuple(s for y in gone if y != x for s in holds.pop(y, ()))
+            held = tuple(sorted(holds.get(x, ()) + taken + (stamp_s,) * (len(gone) - (x not in (a, b)))))
+            if held:
+                holds[x] = held
+    return holds

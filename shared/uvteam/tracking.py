@@ -29,6 +29,7 @@ class CrowdTrack:
     hits: int
     misses: int
     trail: tuple[tuple[float, float, float], ...] = ()   # (stamp s, east m, north m) of recent estimates, oldest first
+    first_s: float = float("nan")                         # stamp of its first estimate
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,7 +69,7 @@ class CrowdTracker:
         for j in range(len(en)):
             if out[j] is None:
                 nt = CrowdTrack(nid, float(en[j, 0]), float(en[j, 1]), 0.0, 0.0, stamp_s, 1, 0,
-                                ((stamp_s, float(en[j, 0]), float(en[j, 1])),))
+                                ((stamp_s, float(en[j, 0]), float(en[j, 1])),), stamp_s)
                 nid += 1
                 kept.append(nt)
                 out[j] = nt

@@ -160,3 +160,63 @@ def test_parts_seen_drifting_apart_for_several_frames_stay_two_when_the_drift_st
 def test_a_pair_is_forgotten_when_one_of_its_tracks_is_dropped():
     run(lambda t: [(0.0, 0.0, 20.0)] + ([(25.0, 0.0, 10.0)] if t < 1.0 else []), seconds=3.0)
     assert run.state.apart == frozenset() and len(run.state.tracker.tracks) == 1
+
+
+def _merge_and_part(t):
+    """Crowds A (20 units) and B (10) 20 m apart, closing at 1 m/s to 7 m at t = 13 s and parting again at
+    1 m/s; while under 10 m apart the detector sees them as one blob (centre area-weighted, footprint
+    over both)."""
+    d = 20.0 - t if t <= 13.0 else 7.0 + (t - 13.0)
+    n = 1.2 * t
+    if d < 10.0:
+        return [(d / 3.0, n, 30.0, d / 2.0 + 3.0)]
+    return [(0.0, n, 20.0, 3.0), (d, n, 10.0, 3.0)]
+
+
+def run_boxes(parts_at, seconds, jitter_m=0.3, seed=0):
+    rng = np.random.default_rng(seed)
+    state, counts = GroupingState(), []
+    for f in range(int(seconds * 10)):
+        t = f / 10
+        ests = tuple(estimate(e + rng.normal(0, jitter_m), n + rng.normal(0, jitter_m), a, half=h)
+                     for e, n, a, h in parts_at(t))
+        state, out = report_crowds(state, ests, T0 + t, FRAME)
+        counts.append(len(out))
+    return counts, state
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_crowd_coming_out_of_the_blob_that_took_it_in_is_two_at_once(seed):
+    # A and B are known apart (20 m, beyond apart_m); at t = 10 s B vanishes into A's blob, which is
+    # remembered; at t = 16 s it comes out again, 10 m from A and drifting away at 1 m/s. It is a crowd
+    # of its own once its track is confirmed (3 frames), not after a drift has shown (1 s to see one,
+    # then apart_frames frames: until ~18 s, as a part first seen beside a crowd with no merge before).
+    # Either blob may take a new track where the centre jumps (seeds 1, 4): the memory goes with it
+    counts, state = run_boxes(_merge_and_part, 20.0, seed=seed)
+    assert set(counts[3:100]) == {2} and set(counts[103:160]) == {1}      # two, then one blob
+    assert set(counts[163:]) == {2}
+    assert state.holds == {} and len(state.apart) == 1
+    # the same parting with no merge before it: one crowd until the drift shows
+    counts, _ = run_boxes(lambda t: _merge_and_part(t) if t >= 16.0 else [(1.0, 1.2 * t, 30.0, 3.0)], 20.0, seed=seed)
+    assert set(counts[163:170]) == {1}
+
+
+def test_the_memory_goes_on_with_the_blob_when_its_centre_jumps():
+    # at t = 12 s the merged blob's centre jumps 5 m (beyond the tracker's 4 m gate: a new track), its
+    # footprint still over the old centre: the new track holds B, which comes out at once at t = 16 s
+    def jumpy(t):
+        return [(e + (5.0 if 12.0 <= t < 16.0 else 0.0), n, a, h + 5.0 * (h > 3.0)) for e, n, a, h in _merge_and_part(t)]
+    counts, state = run_boxes(jumpy, 20.0, jitter_m=0.0)
+    assert set(counts[163:]) == {2} and len(state.apart) == 1
+    assert sorted(round(t.first_s - T0, 1) for t in state.tracker.tracks) == [12.0, 16.0]  # the jumped blob's track
+
+
+def test_a_merge_is_remembered_only_for_crowds_known_apart_and_is_forgotten_with_the_track():
+    # the blob that took B in holds it while its track lives; a crowd never known apart holds nothing
+    counts, state = run_boxes(lambda t: _merge_and_part(min(t, 12.0)), 14.0)
+    (x, since), = state.holds.items()
+    assert since == (pytest.approx(T0 + 10.1),) and x == min(t.track_id for t in state.tracker.tracks)
+    counts, state = run_boxes(lambda t: _merge_and_part(min(t, 12.0)) if t < 12.0 else [], 14.0)
+    assert state.holds == {} and state.tracker.tracks == ()
+    counts, state = run_boxes(lambda t: _merge_and_part(t + 11.0)[:1] if t < 3.0 else _merge_and_part(t + 11.0), 6.0)
+    assert state.holds == {}
