@@ -20,7 +20,7 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    parts do show now and then, latches nothing;
 4. two crowds known apart whose blobs become one (one of them unseen, its predicted centre inside the
    footprint of a blob that holds the other's too) are remembered as one track holding a second crowd
-   (:attr:`GroupingState.holds`). When a part later appears beside that track (within ``near_m``, first
+   (:attr:`GroupingState.holds`), until the unseen one's track is seen again. When a part later appears beside that track (within ``near_m``, first
    seen after the merge), it is that crowd coming out again: two crowds at once, with no wait for a
    drift to show (which took ``min_span_s`` plus ``apart_frames`` frames, in which the crowds were
    reported as one);
@@ -67,7 +67,9 @@ class GroupingConfig:
             raise ValueError(f"apart_m must be >= near_m and apart_frames >= 1, got {self.apart_m}, {self.apart_frames}")
 
 
+HOLD_MARGIN_M = 2.0        # a predicted centre this far outside a footprint is still in it (track velocities are rough)
 Pair = tuple[int, int]   # two track ids, the smaller first
+Held = tuple[float, Pair, tuple[int, ...]]  # a crowd a blob took in: when, the pair known apart, the tracks it lost
 
 
 @dataclass(frozen=True, slots=True)
@@ -76,7 +78,7 @@ class GroupingState:
     tracker: CrowdTracker = field(default_factory=CrowdTracker)
     apart: frozenset[Pair] = frozenset()                        # pairs of tracks known to be two crowds
     streak: Mapping[Pair, int] = field(default_factory=dict)    # frames in a row each pair's distance changed
-    holds: Mapping[int, tuple[float, ...]] = field(default_factory=dict)  # per track, when it took in each other crowd
+    holds: Mapping[int, tuple[Held, ...]] = field(default_factory=dict)  # per track, the other crowds its blob took in
 
 
 def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig = GroupingConfig(),
@@ -178,7 +180,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
         at = (t.east_m + t.v_east_m_s * (stamp_s - t.stamp_s), t.north_m + t.v_north_m_s * (stamp_s - t.stamp_s))
         # the blob's own track if seen, and parts first seen since the merge beside where it is
         out_of = [trk[k].track_id for k in confirmed if trk[k].track_id == x or (
-            trk[k].first_s > since[0] and np.hypot(trk[k].east_m - at[0], trk[k].north_m - at[1]) < cfg.near_m)]
+            trk[k].first_s > since[0][0] and np.hypot(trk[k].east_m - at[0], trk[k].north_m - at[1]) < cfg.near_m)]
         for y in out_of[1:]:
             pair = (min(out_of[0], y), max(out_of[0], y))
             if pair not in apart and since:
@@ -202,35 +204,43 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
 
 
 def _merged(state: GroupingState, tracker: CrowdTracker, trk: list[CrowdTrack], boxes_en: np.ndarray,
-            stamp_s: float) -> dict[int, tuple[float, ...]]:
+            stamp_s: float) -> dict[int, tuple[Held, ...]]:
     """:attr:`GroupingState.holds` after this frame's merges: a pair known apart, one or both of them
-    unseen for the first time, whose predicted centres both lie in one estimate's footprint (``boxes_en``,
+    unseen (this frame, while still tracked), whose predicted centres both lie in one estimate's footprint (``boxes_en``,
     per estimate ``trk``): that estimate's track now holds both crowds, and what the unseen ones held.
-    A holding track unseen for the first time hands what it holds to the one new track whose footprint
-    holds its predicted centre."""
+    A holding track unseen hands what it holds to the one other track (not of its pairs, holding
+    nothing) whose footprint holds its predicted centre; a crowd held is let go when a track the blob
+    took it from is seen again (the blob was one only for a frame or two)."""
     prev = {t.track_id: t for t in state.tracker.tracks}
     live = {t.track_id: t for t in tracker.tracks}
-    holds = {x: v for x, v in state.holds.items() if x in live}
+    seen = {t.track_id for t in trk}
+    holds = {x: tuple(h for h in v if not seen & set(h[2])) for x, v in state.holds.items() if x in live}
 
     def holding(ids: tuple[int, ...]) -> np.ndarray:
         """The estimates whose footprints hold the predicted centres of all these tracks."""
         p = np.array([[prev[y].east_m + prev[y].v_east_m_s * (stamp_s - prev[y].stamp_s),
                        prev[y].north_m + prev[y].v_north_m_s * (stamp_s - prev[y].stamp_s)] for y in ids])
-        return np.flatnonzero(((boxes_en[:, None, :2] <= p[None]) & (p[None] <= boxes_en[:, None, 2:])).all((1, 2)))
+        return np.flatnonzero(((boxes_en[:, None, :2] - HOLD_MARGIN_M <= p[None])
+                               & (p[None] <= boxes_en[:, None, 2:] + HOLD_MARGIN_M)).all((1, 2)))
 
-    for x in [x for x in holds if live[x].misses == 1]:   # the blob's centre jumped: a new track goes on with it
-        new = [k for k in holding((x,)) if trk[k].hits == 1]
-        if len(new) == 1:
-            holds[trk[new[0]].track_id] = holds.pop(x)
+    for x in [x for x in holds if live[x].misses >= 1]:   # another track took the blob on (its centre jumped)
+        lost = {y for h in holds[x] for y in h[2]}
+        took = [k for k in holding((x,)) if trk[k].track_id not in lost and trk[k].track_id not in holds]
+        if len(took) == 1:
+            holds[trk[took[0]].track_id] = holds.pop(x)
+    known = {h[1] for v in holds.values() for h in v}
     for a, b in sorted(state.apart):
-        gone = [y for y in (a, b) if y in live and live[y].misses == 1]
-        if not gone or any(y not in live for y in (a, b)):
+        if (a, b) in known or any(y not in live for y in (a, b)):
+            continue
+        gone = [y for y in (a, b) if live[y].misses >= 1]
+        if not gone:
             continue
         inside = holding((a, b))
         if len(inside):
             x = trk[int(inside[0])].track_id
             taken = tuple(s for y in gone if y != x for s in holds.pop(y, ()))
-            held = tuple(sorted(holds.get(x, ()) + taken + (stamp_s,) * (len(gone) - (x not in (a, b)))))
+            lost = tuple(y for y in gone if y != x)
+            held = tuple(sorted(holds.get(x, ()) + taken + ((stamp_s, (a, b), lost),) * (len(gone) - (x not in (a, b)))))
             if held:
                 holds[x] = held
     return holds
