@@ -18,12 +18,12 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    that close in slowly, or part again after walking as one blob, are then not joined by a frame in
    which their drift is not (yet) significant; a single significant frame, which one crowd's jittering
    parts do show now and then, latches nothing;
-4. two crowds known apart whose blobs become one (one of them unseen, its predicted centre inside the
-   footprint of a blob that holds the other's too) are remembered as one track holding a second crowd
-   (:attr:`GroupingState.holds`), until the unseen one's track is seen again. When a part later appears beside that track (within ``near_m``, first
-   seen after the merge), it is that crowd coming out again: two crowds at once, with no wait for a
-   drift to show (which took ``min_span_s`` plus ``apart_frames`` frames, in which the crowds were
-   reported as one);
+4. two crowds known apart whose blobs become one (one of them unseen, both predicted centres in one
+   blob's footprint) are remembered as that blob's track holding a second crowd
+   (:attr:`GroupingState.holds`), until the unseen one's track is seen again; the memory goes on with
+   whichever track takes the blob on. When a part first seen after the merge appears beside that
+   track (within ``near_m``), it is the crowd coming out again: two crowds at once, with no wait for a
+   drift to show (``min_span_s`` plus ``apart_frames`` frames, in which the two were reported as one);
 5. only parts seen ``confirm_hits`` times take part (a blob of one frame neither is a crowd nor pulls
    one); a crowd is the area-weighted mean of its parts (the detector's moving pixels), its footprint
    the box round theirs, its 95 % radius the largest of theirs, reported under its longest-seen
@@ -174,8 +174,6 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     apart = set(state.apart)
     live = {t.track_id: t for t in tracker.tracks}
     for x, since in list(holds.items()):    # crowds coming out of the blob that took them in
-        if not since:
-            continue
         t = live[x]
         at = (t.east_m + t.v_east_m_s * (stamp_s - t.stamp_s), t.north_m + t.v_north_m_s * (stamp_s - t.stamp_s))
         # the blob's own track if seen, and parts first seen since the merge beside where it is
@@ -206,8 +204,9 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
 def _merged(state: GroupingState, tracker: CrowdTracker, trk: list[CrowdTrack], boxes_en: np.ndarray,
             stamp_s: float) -> dict[int, tuple[Held, ...]]:
     """:attr:`GroupingState.holds` after this frame's merges: a pair known apart, one or both of them
-    unseen (this frame, while still tracked), whose predicted centres both lie in one estimate's footprint (``boxes_en``,
-    per estimate ``trk``): that estimate's track now holds both crowds, and what the unseen ones held.
+    unseen this frame (while still tracked), whose predicted centres both lie in one estimate's
+    footprint (``boxes_en``, per estimate ``trk``): that estimate's track now holds both crowds, and
+    what the unseen ones held.
     A holding track unseen hands what it holds to the one other track (not of its pairs, holding
     nothing) whose footprint holds its predicted centre; a crowd held is let go when a track the blob
     took it from is seen again (the blob was one only for a frame or two)."""
@@ -215,6 +214,7 @@ def _merged(state: GroupingState, tracker: CrowdTracker, trk: list[CrowdTrack], 
     live = {t.track_id: t for t in tracker.tracks}
     seen = {t.track_id for t in trk}
     holds = {x: tuple(h for h in v if not seen & set(h[2])) for x, v in state.holds.items() if x in live}
+    holds = {x: v for x, v in holds.items() if v}
 
     def holding(ids: tuple[int, ...]) -> np.ndarray:
         """The estimates whose footprints hold the predicted centres of all these tracks."""
@@ -240,7 +240,8 @@ def _merged(state: GroupingState, tracker: CrowdTracker, trk: list[CrowdTrack], 
             x = trk[int(inside[0])].track_id
             taken = tuple(s for y in gone if y != x for s in holds.pop(y, ()))
             lost = tuple(y for y in gone if y != x)
-            held = tuple(sorted(holds.get(x, ()) + taken + ((stamp_s, (a, b), lost),) * (len(gone) - (x not in (a, b)))))
+            hidden = len(gone) - (x not in (a, b))    # crowds in the blob, less the one seen as it
+            held = tuple(sorted(holds.get(x, ()) + taken + ((stamp_s, (a, b), lost),) * hidden))
             if held:
                 holds[x] = held
     return holds

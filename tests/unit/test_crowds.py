@@ -205,7 +205,8 @@ def test_the_memory_goes_on_with_the_blob_when_its_centre_jumps():
     # at t = 12 s the merged blob's centre jumps 5 m (beyond the tracker's 4 m gate: a new track), its
     # footprint still over the old centre: the new track holds B, which comes out at once at t = 16 s
     def jumpy(t):
-        return [(e + (5.0 if 12.0 <= t < 16.0 else 0.0), n, a, h + 5.0 * (h > 3.0)) for e, n, a, h in _merge_and_part(t)]
+        shift = 5.0 if 12.0 <= t < 16.0 else 0.0
+        return [(e + shift, n, a, h + 5.0 * (h > 3.0)) for e, n, a, h in _merge_and_part(t)]
     counts, state = run_boxes(jumpy, 20.0, jitter_m=0.0)
     assert set(counts[163:]) == {2} and len(state.apart) == 1
     assert sorted(round(t.first_s - T0, 1) for t in state.tracker.tracks) == [12.0, 16.0]  # the jumped blob's track

@@ -199,9 +199,9 @@ class MotionDetector:
         pixels within ``carve_radius_px`` of the point become a blob of their own, the rest another, so
         a vehicle driving through a crowd neither hides the crowd nor is reported as part of it; what is
         left is a crowd only if one group of it is crowd-sized on its own (not the trails of two vehicles
-        side by side). Such a vehicle's blob is centred on its point, since its pixels are mixed with the crowd's. A blob
-        that is a vehicle's (carved, or holding its point with no more than a vehicle's worth) says
-        which point in ``MotionBlobs.carved``, and needs no crowd-sized area."""
+        side by side). Such a vehicle's blob is centred on its point, since its pixels are mixed with the
+        crowd's. A blob that is a vehicle's (carved, or holding its point with no more than a vehicle's
+        worth) says which point in ``MotionBlobs.carved``, and needs no crowd-sized area."""
         cfg = self.cfg
         gray = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame
         s = cfg.process_scale
