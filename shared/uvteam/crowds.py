@@ -196,8 +196,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
         lead = min(members, key=lambda k: (-trk[k].hits, trk[k].track_id))
         out.append((_merge(frame, [estimates[k] for k in members]), trk[lead]))
     out.sort(key=lambda ct: (-ct[1].hits, ct[1].track_id))
-    live = {t.track_id for t in tracker.tracks}   # a pair is forgotten once either of its tracks is dropped
-    apart = frozenset(p for p in apart if p[0] in live and p[1] in live)
+    apart = frozenset(p for p in apart if p[0] in live and p[1] in live)   # forgotten with either track
     return GroupingState(tracker, apart, streak, {x: v for x, v in holds.items() if v and x in live}), out
 
 

@@ -173,6 +173,13 @@ def _warper(M: np.ndarray, w: int, h: int):
                                                            borderValue=border)
 
 
+def _close(mask: np.ndarray, kernel: np.ndarray) -> np.ndarray:
+    """A closing of a blob's crop that does not join it to the crop's edge (padded with nothing moving)."""
+    pad = kernel.shape[0]
+    padded = cv2.copyMakeBorder(mask, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0)
+    return cv2.morphologyEx(padded, cv2.MORPH_CLOSE, kernel)[pad:-pad, pad:-pad]
+
+
 class MotionDetector:
     def __init__(self, cfg: MotionConfig = MotionConfig()) -> None:
         self.cfg = cfg
@@ -336,11 +343,7 @@ class MotionDetector:
         their trail beyond the carved disc; together they can make a crowd's area, apart neither does."""
         if float(rest.sum()) * inv * inv < self.cfg.min_area_px:
             return False
-        r8 = rest.view(np.uint8) * np.uint8(255)
-        pad = self._k_close.shape[0]
-        joined = cv2.morphologyEx(cv2.copyMakeBorder(r8, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0),
-                                  cv2.MORPH_CLOSE, self._k_close)[pad:-pad, pad:-pad]
-        k, lab = cv2.connectedComponents(joined, connectivity=8)
+        k, lab = cv2.connectedComponents(_close(rest.view(np.uint8) * np.uint8(255), self._k_close), connectivity=8)
         return bool(k > 1 and np.bincount(lab[rest], minlength=k)[1:].max() * inv * inv >= self.cfg.min_area_px)
 
     def _split(self, comp: np.ndarray, recent: np.ndarray, x: int, y: int, carve: np.ndarray, r2: float,
@@ -363,10 +366,7 @@ class MotionDetector:
                     m8[(gx - cx) ** 2 + (gy - cy) ** 2 <= r2] = 0
                     kernels = self._k_splits[-1:]
         for ker in kernels:
-            pad = ker.shape[0]
-            fine = cv2.morphologyEx(cv2.copyMakeBorder(m8, pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0),
-                                    cv2.MORPH_CLOSE, ker)[pad:-pad, pad:-pad]
-            k, lab = cv2.connectedComponents(fine, connectivity=8)
+            k, lab = cv2.connectedComponents(_close(m8, ker), connectivity=8)
             if k <= 2:
                 continue
             moved = np.bincount(lab[m8 > 0], minlength=k)[1:] * inv * inv
