@@ -169,13 +169,12 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
         e, n = frame.wgs84_to_ground(fp[:, 0], fp[:, 1])
         boxes.append([e.min(), n.min(), e.max(), n.max()])
     boxes_all = np.array(boxes, float).reshape(-1, 4)
-    holds = _merged(state, tracker, trk, boxes_all, stamp_s)
+    live = {t.track_id: t for t in tracker.tracks}
+    holds = _merged(state, live, trk, boxes_all, stamp_s)
     confirmed = [k for k in range(len(trk)) if trk[k].hits >= cfg.confirm_hits]  # a one-frame blob joins nothing
     apart = set(state.apart)
-    live = {t.track_id: t for t in tracker.tracks}
     for x, since in list(holds.items()):    # crowds coming out of the blob that took them in
-        t = live[x]
-        at = (t.east_m + t.v_east_m_s * (stamp_s - t.stamp_s), t.north_m + t.v_north_m_s * (stamp_s - t.stamp_s))
+        at = live[x].predicted(stamp_s)
         # the blob's own track if seen, and parts first seen since the merge beside where it is
         out_of = [trk[k].track_id for k in confirmed if trk[k].track_id == x or (
             trk[k].first_s > since[0][0] and np.hypot(trk[k].east_m - at[0], trk[k].north_m - at[1]) < cfg.near_m)]
@@ -200,25 +199,23 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     return GroupingState(tracker, apart, streak, {x: v for x, v in holds.items() if v and x in live}), out
 
 
-def _merged(state: GroupingState, tracker: CrowdTracker, trk: list[CrowdTrack], boxes_en: np.ndarray,
+def _merged(state: GroupingState, live: Mapping[int, CrowdTrack], trk: list[CrowdTrack], boxes_en: np.ndarray,
             stamp_s: float) -> dict[int, tuple[Held, ...]]:
     """:attr:`GroupingState.holds` after this frame's merges: a pair known apart, one or both of them
     unseen this frame (while still tracked), whose predicted centres both lie in one estimate's
-    footprint (``boxes_en``, per estimate ``trk``): that estimate's track now holds both crowds, and
-    what the unseen ones held.
+    footprint (``boxes_en``, per estimate ``trk``; ``live``: the tracks after this frame, by id): that
+    estimate's track now holds both crowds, and what the unseen ones held.
     A holding track unseen hands what it holds to the one other track (not of its pairs, holding
     nothing) whose footprint holds its predicted centre; a crowd held is let go when a track the blob
     took it from is seen again (the blob was one only for a frame or two)."""
     prev = {t.track_id: t for t in state.tracker.tracks}
-    live = {t.track_id: t for t in tracker.tracks}
     seen = {t.track_id for t in trk}
     holds = {x: tuple(h for h in v if not seen & set(h[2])) for x, v in state.holds.items() if x in live}
     holds = {x: v for x, v in holds.items() if v}
 
     def holding(ids: tuple[int, ...]) -> np.ndarray:
         """The estimates whose footprints hold the predicted centres of all these tracks."""
-        p = np.array([[prev[y].east_m + prev[y].v_east_m_s * (stamp_s - prev[y].stamp_s),
-                       prev[y].north_m + prev[y].v_north_m_s * (stamp_s - prev[y].stamp_s)] for y in ids])
+        p = np.array([prev[y].predicted(stamp_s) for y in ids])
         return np.flatnonzero(((boxes_en[:, None, :2] - HOLD_MARGIN_M <= p[None])
                                & (p[None] <= boxes_en[:, None, 2:] + HOLD_MARGIN_M)).all((1, 2)))
 

@@ -31,6 +31,11 @@ class CrowdTrack:
     trail: tuple[tuple[float, float, float], ...] = ()   # (stamp s, east m, north m) of recent estimates, oldest first
     first_s: float = float("nan")                         # stamp of its first estimate
 
+    def predicted(self, stamp_s: float) -> tuple[float, float]:
+        """(east m, north m) at ``stamp_s`` at the track's velocity."""
+        dt = stamp_s - self.stamp_s
+        return self.east_m + self.v_east_m_s * dt, self.north_m + self.v_north_m_s * dt
+
 
 @dataclass(frozen=True, slots=True)
 class CrowdTracker:
@@ -45,8 +50,7 @@ class CrowdTracker:
     def update(self, en_m: np.ndarray, stamp_s: float) -> tuple["CrowdTracker", list[CrowdTrack]]:
         """Associate this frame's estimates (N, 2); returns the new tracker and one track per estimate."""
         en = np.asarray(en_m, float).reshape(-1, 2)
-        pred = np.array([[t.east_m + t.v_east_m_s * (stamp_s - t.stamp_s),
-                          t.north_m + t.v_north_m_s * (stamp_s - t.stamp_s)] for t in self.tracks]).reshape(-1, 2)
+        pred = np.array([t.predicted(stamp_s) for t in self.tracks]).reshape(-1, 2)
         asg = assign_optimal(pred, en, self.gate_m) if len(pred) and len(en) else None
         pairs = asg.blob_of_landmark if asg else {}
         out: list[CrowdTrack | None] = [None] * len(en)
