@@ -21,12 +21,14 @@ def estimate(e, n, area=1.0, r95=1.0, half=1.0):
 
 
 def run(parts_at, seconds=6.0, rate_hz=10.0, seed=0, jitter_m=0.3, cfg=GroupingConfig()):
-    """Feed report_crowds each frame's parts: parts_at(t) -> [(east, north, area)], with centre jitter."""
+    """Feed report_crowds each frame's parts: parts_at(t) -> [(east, north, area[, footprint half-side])],
+    with centre jitter."""
     rng = np.random.default_rng(seed)
     state, out, counts = GroupingState(), [], []
     for f in range(int(seconds * rate_hz)):
         t = f / rate_hz
-        ests = tuple(estimate(e + rng.normal(0, jitter_m), n + rng.normal(0, jitter_m), a) for e, n, a in parts_at(t))
+        ests = tuple(estimate(e + rng.normal(0, jitter_m), n + rng.normal(0, jitter_m), a, half=h[0] if h else 1.0)
+                     for e, n, a, *h in parts_at(t))
         state, out = report_crowds(state, ests, T0 + t, FRAME, cfg)
         counts.append(len(out))
     run.counts = counts   # crowds reported per frame
@@ -173,18 +175,6 @@ def _merge_and_part(t):
     return [(0.0, n, 20.0, 3.0), (d, n, 10.0, 3.0)]
 
 
-def run_boxes(parts_at, seconds, jitter_m=0.3, seed=0):
-    rng = np.random.default_rng(seed)
-    state, counts = GroupingState(), []
-    for f in range(int(seconds * 10)):
-        t = f / 10
-        ests = tuple(estimate(e + rng.normal(0, jitter_m), n + rng.normal(0, jitter_m), a, half=h)
-                     for e, n, a, h in parts_at(t))
-        state, out = report_crowds(state, ests, T0 + t, FRAME)
-        counts.append(len(out))
-    return counts, state
-
-
 @pytest.mark.parametrize("seed", range(6))
 def test_a_crowd_coming_out_of_the_blob_that_took_it_in_is_two_at_once(seed):
     # A and B are known apart (20 m, beyond apart_m); at t = 10 s B vanishes into A's blob, which is
@@ -192,13 +182,13 @@ def test_a_crowd_coming_out_of_the_blob_that_took_it_in_is_two_at_once(seed):
     # of its own once its track is confirmed (3 frames), not after a drift has shown (1 s to see one,
     # then apart_frames frames: until ~18 s, as a part first seen beside a crowd with no merge before).
     # Either blob may take a new track where the centre jumps (seeds 1, 4): the memory goes with it
-    counts, state = run_boxes(_merge_and_part, 20.0, seed=seed)
-    assert set(counts[3:100]) == {2} and set(counts[103:160]) == {1}      # two, then one blob
-    assert set(counts[163:]) == {2}
-    assert state.holds == {} and len(state.apart) == 1
+    run(_merge_and_part, 20.0, seed=seed)
+    assert set(run.counts[3:100]) == {2} and set(run.counts[103:160]) == {1}      # two, then one blob
+    assert set(run.counts[163:]) == {2}
+    assert run.state.holds == {} and len(run.state.apart) == 1
     # the same parting with no merge before it: one crowd until the drift shows
-    counts, _ = run_boxes(lambda t: _merge_and_part(t) if t >= 16.0 else [(1.0, 1.2 * t, 30.0, 3.0)], 20.0, seed=seed)
-    assert set(counts[163:170]) == {1}
+    run(lambda t: _merge_and_part(t) if t >= 16.0 else [(1.0, 1.2 * t, 30.0, 3.0)], 20.0, seed=seed)
+    assert set(run.counts[163:170]) == {1}
 
 
 def test_the_memory_goes_on_with_the_blob_when_its_centre_jumps():
@@ -207,9 +197,9 @@ def test_the_memory_goes_on_with_the_blob_when_its_centre_jumps():
     def jumpy(t):
         shift = 5.0 if 12.0 <= t < 16.0 else 0.0
         return [(e + shift, n, a, h + 5.0 * (h > 3.0)) for e, n, a, h in _merge_and_part(t)]
-    counts, state = run_boxes(jumpy, 20.0, jitter_m=0.0)
-    assert set(counts[163:]) == {2} and len(state.apart) == 1
-    assert sorted(round(t.first_s - T0, 1) for t in state.tracker.tracks) == [12.0, 16.0]  # the jumped blob's track
+    run(jumpy, 20.0, jitter_m=0.0)
+    assert set(run.counts[163:]) == {2} and len(run.state.apart) == 1
+    assert sorted(round(t.first_s - T0, 1) for t in run.state.tracker.tracks) == [12.0, 16.0]  # the jumped blob's track
 
 
 def test_a_blob_that_was_one_for_a_frame_or_two_holds_nothing():
@@ -221,16 +211,17 @@ def test_a_blob_that_was_one_for_a_frame_or_two_holds_nothing():
         if 10.0 <= t < 10.2:
             return [(d / 3.0, 1.2 * t, 30.0, d / 2.0 + 3.0)]
         return [(0.0, 1.2 * t, 20.0, 3.0), (d, 1.2 * t, 10.0, 3.0)] + ([(-5.0, 1.2 * t, 6.0, 1.5)] if t >= 12.0 else [])
-    counts, state = run_boxes(parts, 16.0, jitter_m=0.1)
-    assert set(counts[125:]) == {2} and state.holds == {}
+    run(parts, 16.0, jitter_m=0.1)
+    assert set(run.counts[125:]) == {2} and run.state.holds == {}
 
 
 def test_a_merge_is_remembered_only_for_crowds_known_apart_and_is_forgotten_with_the_track():
     # the blob that took B in holds it while its track lives; a crowd never known apart holds nothing
-    counts, state = run_boxes(lambda t: _merge_and_part(min(t, 12.0)), 14.0)
-    (x, since), = state.holds.items()
-    assert [h[0] for h in since] == [pytest.approx(T0 + 10.1)] and x == min(t.track_id for t in state.tracker.tracks)
-    counts, state = run_boxes(lambda t: _merge_and_part(min(t, 12.0)) if t < 12.0 else [], 14.0)
-    assert state.holds == {} and state.tracker.tracks == ()
-    counts, state = run_boxes(lambda t: _merge_and_part(t + 11.0)[:1] if t < 3.0 else _merge_and_part(t + 11.0), 6.0)
-    assert state.holds == {}
+    run(lambda t: _merge_and_part(min(t, 12.0)), 14.0)
+    (x, since), = run.state.holds.items()
+    assert [h[0] for h in since] == [pytest.approx(T0 + 10.1)]
+    assert x == min(t.track_id for t in run.state.tracker.tracks)
+    run(lambda t: _merge_and_part(min(t, 12.0)) if t < 12.0 else [], 14.0)
+    assert run.state.holds == {} and run.state.tracker.tracks == ()
+    run(lambda t: _merge_and_part(t + 11.0)[:1] if t < 3.0 else _merge_and_part(t + 11.0), 6.0)
+    assert run.state.holds == {}
