@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from uvteam import keys
-from uvteam.bus import BusConfig, ZenohBus
+from uvteam.bus import BusConfig
+from uvteam.io.zenoh_bus import ZenohBus
 from uvteam.geo import LocalFrame
 from uvteam.messages import Crowds, Status, Truth
 from uvteam.service import StopFlag
@@ -59,7 +60,7 @@ class Team:
     def __init__(self, scenario_path: str, *, team: str = "demo", seed: int | None = None,
                  duration_s: float | None = None, workdir: str | None = None, log_level: str = "INFO",
                  frames: str = "pixels") -> None:
-        from uvteam.scenario import load_scenario  # noqa: PLC0415
+        from uvteam.io.files import load_scenario  # noqa: PLC0415
 
         self.sc = load_scenario(scenario_path)
         self.scenario_path = str(scenario_path)

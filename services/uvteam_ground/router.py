@@ -9,7 +9,8 @@ import argparse
 import logging
 import sys
 
-from uvteam.bus import BusConfig, add_bus_args
+from uvteam.bus import BusConfig
+from uvteam.io.zenoh_bus import add_bus_args, zenoh_config
 from uvteam.service import StopFlag, setup_logging
 
 log = logging.getLogger("uvteam.router")
@@ -27,7 +28,7 @@ def main(argv: list[str] | None = None) -> int:
                     listen=tuple(args.listen) or ("tcp/0.0.0.0:7447",))
     stop = StopFlag()
     try:
-        session = zenoh.open(cfg.to_zenoh())
+        session = zenoh.open(zenoh_config(cfg))
     except Exception as exc:  # ZError
         print(f"uvteam router: cannot start: {exc}", file=sys.stderr)
         return 3

@@ -17,7 +17,8 @@ import time
 from collections import defaultdict, deque
 
 from uvteam import keys, messages
-from uvteam.bus import BusConfig, ZenohBus, add_bus_args
+from uvteam.bus import BusConfig
+from uvteam.io.zenoh_bus import ZenohBus, add_bus_args
 from uvteam.errors import LinkError, MessageError
 from uvteam.service import StopFlag
 

@@ -18,7 +18,7 @@ from collections import deque
 import numpy as np
 
 from uvteam import keys
-from uvteam.bus import ZenohBus
+from uvteam.io.zenoh_bus import ZenohBus
 from uvteam.config import VehicleConfig
 from uvteam.crowds import GroupingConfig, GroupingState, report_crowds
 from uvteam.geo import LocalFrame

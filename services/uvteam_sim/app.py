@@ -21,11 +21,11 @@ import numpy as np
 
 from uvteam import keys
 from uvteam.autopilot import MAV_CMD_DO_CHANGE_SPEED, MAV_CMD_NAV_WAYPOINT, mavlink2
-from uvteam.bus import ZenohBus, add_bus_args, bus_config_from_args
+from uvteam.io.zenoh_bus import ZenohBus, add_bus_args, bus_config_from_args
 from uvteam.errors import ConfigError, LinkError
 from uvteam.frames import encode_frame
 from uvteam.messages import Blob, Detections, Landmark, Truth, TruthCrowd, TruthUgv
-from uvteam.scenario import load_scenario
+from uvteam.io.files import load_scenario
 from uvteam.service import StopFlag, setup_logging
 
 from .autopilot import SimAutopilot
@@ -63,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--uav", type=_vehicle_arg, required=True, metavar="ID:PORT:SYSID",
                     help="the UAV service's MAVLink udpin port and the autopilot's system id")
     ap.add_argument("--ugv", type=_vehicle_arg, action="append", default=[], metavar="ID:PORT:SYSID",
-                    help="one per UGV, in the order of the scenario's colours")
+                    help="one per UGV, in the order of the scenario's colors")
     ap.add_argument("--duration", type=float, default=None, help="seconds (default: the scenario's)")
     ap.add_argument("--frames", choices=["pixels", "sensor"], default="pixels",
                     help="pixels: render the UAV camera and publish frames (.../<uav>/frame); "
@@ -177,7 +177,7 @@ def run(sc, args, stop: StopFlag) -> int:
                             uav_id, now_unix, frame_seq, sc.camera.width_px, sc.camera.height_px, sc.uav.altitude_agl_m,
                             tuple(Landmark(c, float(x), float(y)) for c, (x, y) in sf.landmarks.items()),
                             tuple(Blob(float(c[0]), float(c[1]), *map(float, b), ugv=u)
-                                  for c, b, u in zip(sf.blob_xy_px, sf.blob_xyxy_px, sf.blob_colour))))
+                                  for c, b, u in zip(sf.blob_xy_px, sf.blob_xyxy_px, sf.blob_color))))
                     tl = [world.frame.ground_to_wgs84(c[0], c[1]) for c, _ in truth]
                     ul = world.frame.ground_to_wgs84(ugv_p[:, 0], ugv_p[:, 1])
                     bus.publish(truth_key, Truth(

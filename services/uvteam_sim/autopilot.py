@@ -22,7 +22,8 @@ import threading
 import time
 from typing import Callable
 
-from uvteam.autopilot import DatagramParser, MissionItem, mavlink2
+from uvteam.autopilot import MissionItem, mavlink2
+from uvteam.io.mavlink import DatagramParser
 
 __all__ = ["SimAutopilot"]
 

@@ -11,7 +11,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from uvteam.scenario import load_scenario
+from uvteam.io.files import load_scenario
 from uvteam.vision.uav import UavVision, UavVisionConfig
 
 from .render import Renderer
@@ -22,7 +22,7 @@ SCENARIOS = Path(__file__).resolve().parents[2].parent / "shared" / "scenarios"
 
 def run(n: int = 60) -> dict:
     cv2.setNumThreads(1)
-    """The simulator's renderer and the UAV's whole pixel pipeline (colour + motion, as the service
+    """The simulator's renderer and the UAV's whole pixel pipeline (color + motion, as the service
     runs it) on rendered frames of the paper scenarios, at 1280x720 and at 1920x1080 (same field of view)."""
     scen = SCENARIOS
     if not scen.is_dir():
@@ -43,7 +43,7 @@ def run(n: int = 60) -> dict:
                 t_render += time.perf_counter() - t0
                 for _ in range(4):
                     world.step(0.025)
-            vis = UavVision(UavVisionConfig(focal_px=world.camera.focal_px, colours=tuple(sc.ugvs.colors)))
+            vis = UavVision(UavVisionConfig(focal_px=world.camera.focal_px, colors=tuple(sc.ugvs.colors)))
             vis.update(frames[0], 0.0, sc.uav.altitude_agl_m)
             t0 = time.perf_counter()
             for i, f in enumerate(frames[1:], start=1):
@@ -52,6 +52,6 @@ def run(n: int = 60) -> dict:
             key = f"{name}_{w}x{h}"
             res[f"render_fps_{key}"] = n / t_render
             res[f"uav_pipeline_fps_{key}"] = fps
-            print(f"rendered {name} {w}x{h}: renderer {n / t_render:.1f} fps; UAV pipeline (colour + motion, "
+            print(f"rendered {name} {w}x{h}: renderer {n / t_render:.1f} fps; UAV pipeline (color + motion, "
                   f"process scale {vis.motion_config.process_scale}) {fps:.1f} fps on one core")
     return res

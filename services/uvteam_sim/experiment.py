@@ -28,7 +28,8 @@ from uvteam.crowds import GroupingConfig, GroupingState, report_crowds
 from uvteam.detector_noise import localizer_sigmas_px
 from uvteam.localizer import FrameObservation, LocalizerConfig, LocalizerState, UgvTrack, localize_step
 from uvteam.planning import plan_stations
-from uvteam.scenario import Scenario, load_scenario
+from uvteam.io.files import load_scenario
+from uvteam.scenario import Scenario
 
 from .world import SimWorld
 
@@ -84,7 +85,7 @@ def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinat
     world = SimWorld(sc, seed)
     cfg = localizer_config(sc, world.frame, image_coordinates, getattr(detector, "kind", "sensor"))
     ids = _ugv_ids(sc)
-    colour_to_id = dict(zip(sc.ugvs.colors, ids))
+    color_to_id = dict(zip(sc.ugvs.colors, ids))
     lost_at = {int(i): float(t) for i, t in sc.events.lose_ugv}
     fixes = {u: deque(maxlen=64) for u in ids}
     plans: dict[str, tuple[np.ndarray, np.ndarray]] = {}
@@ -142,8 +143,8 @@ def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinat
         # the UAV frame
         pose = world.camera_pose()
         sf = sense(world, pose, T0 + t)
-        obs = FrameObservation(T0 + t, {colour_to_id[c]: xy for c, xy in sf.landmarks.items()},
-                               sf.blob_xy_px, sf.blob_xyxy_px, tuple(colour_to_id.get(c, "") for c in sf.blob_colour),
+        obs = FrameObservation(T0 + t, {color_to_id[c]: xy for c, xy in sf.landmarks.items()},
+                               sf.blob_xy_px, sf.blob_xyxy_px, tuple(color_to_id.get(c, "") for c in sf.blob_color),
                                sf.blob_area_px)
         tracks = {}
         for u in ids:

@@ -38,7 +38,7 @@ class PixelDetector:
         sc = world.sc
         self._world = world
         self.renderer = Renderer(world, np.random.default_rng([world.seed, 0x5EE]))
-        self.vision = UavVision(UavVisionConfig(focal_px=world.camera.focal_px, colours=tuple(sc.ugvs.colors),
+        self.vision = UavVision(UavVisionConfig(focal_px=world.camera.focal_px, colors=tuple(sc.ugvs.colors),
                                                 label_side_m=sc.ugvs.label_side_m, **self.vision_overrides))
 
     def __call__(self, world: SimWorld, pose: CameraPose, stamp_s: float) -> SensorFrame:
@@ -50,7 +50,7 @@ class PixelDetector:
         alt_agl_m = pose.up_m - float(world.terrain_up_m(np.array([pose.east_m, pose.north_m]))[0])
         r = self.last_result = self.vision.update(frame, stamp_s, alt_agl_m)
         return SensorFrame(stamp_s, dict(r.landmarks_px), r.blobs.xy_px, r.blobs.xyxy_px,
-                           blob_kinds(world, pose, r.blobs.xy_px), r.blob_colour, r.blobs.area_px)
+                           blob_kinds(world, pose, r.blobs.xy_px), r.blob_color, r.blobs.area_px)
 
 
 def blob_kinds(world: SimWorld, pose: CameraPose, xy_px: np.ndarray) -> tuple[str, ...]:
@@ -58,8 +58,8 @@ def blob_kinds(world: SimWorld, pose: CameraPose, xy_px: np.ndarray) -> tuple[st
         return ()
     names, pts = [], []
     lm = project(world.camera, pose, world.ugv_label_enu())
-    for colour, p in zip(world.sc.ugvs.colors, lm):
-        names.append(f"ugv:{colour}")
+    for color, p in zip(world.sc.ugvs.colors, lm):
+        names.append(f"ugv:{color}")
         pts.append(p)
     for k, px in enumerate(world.crowd_groups_px(pose)):
         names.append(f"crowd:{k}")

@@ -2,7 +2,7 @@
 
 - Fig. 7: altitude (paper-fig7-alt200 vs paper-fig7-alt50);
 - Fig. 8: number of landmarks (paper-fig8-lm4 vs paper-fig8-lm6);
-- Fig. 9: landmark image coordinates, colour vs motion (paper-fig9-color-lmN beside paper-fig8-lmN, the
+- Fig. 9: landmark image coordinates, color vs motion (paper-fig9-color-lmN beside paper-fig8-lmN, the
   same scenario with motion-blob coordinates);
 - any other scenario (e.g. field-*) on a figure of its own.
 
@@ -23,7 +23,7 @@ __all__ = ["write_plots", "FIGURES"]
 FIGURES = {
     "fig7": ("Fig. 7: UAV altitude", ["paper-fig7-alt200", "paper-fig7-alt50"]),
     "fig8": ("Fig. 8: number of landmarks", ["paper-fig8-lm4", "paper-fig8-lm6"]),
-    "fig9": ("Fig. 9: landmark image coordinates (colour vs motion)",
+    "fig9": ("Fig. 9: landmark image coordinates (color vs motion)",
              ["paper-fig8-lm4", "paper-fig9-color-lm4", "paper-fig8-lm6", "paper-fig9-color-lm6"]),
 }
 BIN_S = 0.5

@@ -4,7 +4,7 @@ What a frame holds, and how it is made (every number here is a modelling choice,
 
 - **Ground**: a desert texture generated once per run from the seed, in ground metres (north up),
   with one texel per nadir image pixel so sampling neither aliases nor blurs: four octaves of value
-  noise (40, 10, 3 and 0.8 m) in sand colours, plus shrubs (dusty grey-olive discs, 0.3-1.2 m) and
+  noise (40, 10, 3 and 0.8 m) in sand colors, plus shrubs (dusty grey-olive discs, 0.3-1.2 m) and
   pale rocks, which give goodFeaturesToTrack its corners. Saturation stays under 100 (OpenCV scale),
   below every roof-label range even with the sensor noise, so the ground never looks like a landmark.
 - **Projection**: every image pixel is cast as a ray from the camera pose (altitude, hover wobble,
@@ -14,7 +14,7 @@ What a frame holds, and how it is made (every number here is a modelling choice,
 - **Objects**, drawn in ground coordinates and projected at their height with anti-aliased sub-pixel
   polygons: shadows first (sun at 55 deg elevation from the south-east, shadows darken the ground to
   55 %), then UGVs (a dark body ``length_m`` x ``width_m`` along the heading, with the square roof
-  label of ``label_side_m`` in the UGV's colour at roof height), then people (an ellipse 0.48 x 0.30 m
+  label of ``label_side_m`` in the UGV's color at roof height), then people (an ellipse 0.48 x 0.30 m
   of muted clothing across the direction of travel, a 0.22 m head, at 1.0 m height, sizes varying
   +-10 %).
 - **Sensor**: additive Gaussian noise ``noise_sigma`` per channel (drawn from a bank made once from
@@ -34,7 +34,7 @@ from .world import PERSON_CENTRE_HEIGHT_M, ROOF_HEIGHT_M, SimWorld
 
 __all__ = ["Renderer", "LABEL_BGR"]
 
-# roof-label colours as a camera sees paint in sunlight (BGR)
+# roof-label colors as a camera sees paint in sunlight (BGR)
 LABEL_BGR = {
     "red": (40, 40, 205), "green": (60, 175, 45), "blue": (190, 85, 30),
     "yellow": (35, 200, 225), "magenta": (190, 55, 195), "cyan": (205, 190, 40),
@@ -190,7 +190,7 @@ class Renderer:
                 people.append((m[j], ground[j], along, s, self.person_bgr[k][j]))
         ugv_up = world.terrain_up_m(world.ugv_p)
         bodies = []
-        for i, colour in enumerate(sc.ugvs.colors):
+        for i, color in enumerate(sc.ugvs.colors):
             hd = math.radians(world.ugv_heading_deg[i])
             fwd = np.array([math.sin(hd), math.cos(hd)])
             side = np.array([fwd[1], -fwd[0]])
@@ -203,15 +203,15 @@ class Renderer:
                 cv2.fillPoly(shade, [poly], gain, cv2.LINE_AA, _SHIFT)
             lab = sc.ugvs.label_side_m / 2
             label = np.array([fwd * a * lab + side * b * lab for a, b in ((1, 1), (1, -1), (-1, -1), (-1, 1))])
-            bodies.append((world.ugv_p[i] + corners, world.ugv_p[i] + label, ugv_up[i] + ROOF_HEIGHT_M, colour))
+            bodies.append((world.ugv_p[i] + corners, world.ugv_p[i] + label, ugv_up[i] + ROOF_HEIGHT_M, color))
         frame = cv2.multiply(frame, cv2.merge([shade, shade, shade]), scale=1.0 / 255.0)
-        for body, label, up, colour in bodies:
+        for body, label, up, color in bodies:
             pb = self._poly_px(pose, body, up)
             pl = self._poly_px(pose, label, up)
             if pb is None or pl is None:
                 continue
             cv2.fillPoly(frame, [pb], (58, 62, 66), cv2.LINE_AA, _SHIFT)
-            cv2.fillPoly(frame, [pl], LABEL_BGR.get(colour, (255, 255, 255)), cv2.LINE_AA, _SHIFT)
+            cv2.fillPoly(frame, [pl], LABEL_BGR.get(color, (255, 255, 255)), cv2.LINE_AA, _SHIFT)
         for pos, ground, along, s, bgr in people:
             across = np.array([along[1], -along[0]])
             body = self._poly_px(pose, _ellipse_m(pos, across, 0.24 * s, 0.15 * s, 10), ground + PERSON_CENTRE_HEIGHT_M)

@@ -51,11 +51,11 @@ GNSS_VEL_SIGMA_M_S = 0.05
 @dataclass(frozen=True)
 class SensorFrame:
     stamp_s: float
-    landmarks: dict[str, tuple[float, float]]    # colour -> px
+    landmarks: dict[str, tuple[float, float]]    # color -> px
     blob_xy_px: np.ndarray
     blob_xyxy_px: np.ndarray
-    blob_kind: tuple[str, ...]                   # "ugv:<colour>" | "crowd:<k>" | "false" (truth, for diagnostics)
-    blob_colour: tuple[str, ...] = ()            # per blob: the roof colour the detector saw in it, or ""
+    blob_kind: tuple[str, ...]                   # "ugv:<color>" | "crowd:<k>" | "false" (truth, for diagnostics)
+    blob_color: tuple[str, ...] = ()            # per blob: the roof color the detector saw in it, or ""
     blob_area_px: np.ndarray | None = None       # per blob: moving pixels (the pixel pipeline); None: unknown
 
 
@@ -213,19 +213,19 @@ class SimWorld:
         """The sensor model: what a detector would report in this frame, with noise, misses, false blobs."""
         rng, sc, cam = self.rng, self.sc, self.camera
         lm_px = project(cam, pose, self.ugv_label_enu())
-        landmarks, xy, boxes, kinds, colours = {}, [], [], [], []
+        landmarks, xy, boxes, kinds, colors = {}, [], [], [], []
         half = 0.5 * max(sc.ugvs.length_m, sc.ugvs.width_m) * cam.focal_px / sc.uav.altitude_agl_m
-        for i, colour in enumerate(sc.ugvs.colors):
+        for i, color in enumerate(sc.ugvs.colors):
             if not self._in_image(lm_px[i]):
                 continue
             if rng.random() >= MISS_PROB:
-                landmarks[colour] = tuple(lm_px[i] + rng.normal(0, SENSOR_MODEL_SIGMA_PX["colour"], 2))
+                landmarks[color] = tuple(lm_px[i] + rng.normal(0, SENSOR_MODEL_SIGMA_PX["color"], 2))
             if self.ugv_speed[i] > MOVING_M_S and rng.random() >= MISS_PROB:
                 c = lm_px[i] + rng.normal(0, SENSOR_MODEL_SIGMA_PX["ugv_blob"], 2)
                 xy.append(c)
                 boxes.append([c[0] - half, c[1] - half, c[0] + half, c[1] + half])
-                kinds.append(f"ugv:{colour}")
-                colours.append(colour if colour in landmarks else "")  # the label lies inside its blob
+                kinds.append(f"ugv:{color}")
+                colors.append(color if color in landmarks else "")  # the label lies inside its blob
         r_px = PERSON_RADIUS_M * cam.focal_px / sc.uav.altitude_agl_m
         for k, px in enumerate(self.crowd_groups_px(pose)):
             vis = self._in_image(px)
@@ -236,13 +236,13 @@ class SimWorld:
             xy.append(c)
             boxes.append([p[:, 0].min() - r_px, p[:, 1].min() - r_px, p[:, 0].max() + r_px, p[:, 1].max() + r_px])
             kinds.append(f"crowd:{k}")
-            colours.append("")
+            colors.append("")
         for _ in range(rng.poisson(FALSE_BLOBS_PER_FRAME)):
             c = rng.uniform([0, 0], [cam.width_px, cam.height_px])
             s = rng.uniform(2, 4) * r_px
             xy.append(c)
             boxes.append([c[0] - s, c[1] - s, c[0] + s, c[1] + s])
             kinds.append("false")
-            colours.append("")
+            colors.append("")
         return SensorFrame(stamp_s, landmarks, np.array(xy, float).reshape(-1, 2),
-                           np.array(boxes, float).reshape(-1, 4), tuple(kinds), tuple(colours))
+                           np.array(boxes, float).reshape(-1, 4), tuple(kinds), tuple(colors))

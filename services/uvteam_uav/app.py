@@ -3,11 +3,11 @@
 Detectors (``[uav].detector``):
 - "pixels": frames from ``[uav].camera`` ("zenoh": the ``.../frame`` key, which the simulator feeds;
   or a device, file, RTSP URL or GStreamer pipeline) through :class:`uvteam.vision.uav.UavVision`
-  (colour landmarks + motion blobs), sized by the autopilot's height above ground. Frames are processed
+  (color landmarks + motion blobs), sized by the autopilot's height above ground. Frames are processed
   newest first: one that arrives while the previous is still in work replaces any waiting one, and the
   dropped count is in the status note.
 - "sim-sensor": the simulator's sensor-model output (``.../sensor``), for runs without pixels.
-Roof colours are mapped to UGV ids with ``[uav].colors``; colours not in the table are not our team's.
+Roof colors are mapped to UGV ids with ``[uav].colors``; colors not in the table are not our team's.
 """
 
 from __future__ import annotations
@@ -19,12 +19,15 @@ import time
 from dataclasses import replace
 
 from uvteam import keys
-from uvteam.autopilot import AutopilotLink, fix_from_state
-from uvteam.bus import ZenohBus
+from uvteam.autopilot import fix_from_state
+from uvteam.io.mavlink import AutopilotLink
+from uvteam.io.zenoh_bus import ZenohBus
 from uvteam.camera import PinholeCamera
-from uvteam.config import VehicleConfig, read_signing_key
+from uvteam.config import VehicleConfig
+from uvteam.io.files import read_signing_key
 from uvteam.errors import ConfigError
-from uvteam.frames import FrameError, frame_pixels, open_source
+from uvteam.frames import FrameError, frame_pixels
+from uvteam.io.video import open_source
 from uvteam.messages import Blob, Detections, Frame, Landmark, Status
 from uvteam.service import StopFlag
 from uvteam.vision.uav import UavFrameResult, UavVision, UavVisionConfig
@@ -34,7 +37,7 @@ DETECTORS = ("pixels", "sim-sensor")
 
 
 def relabel(det: Detections, vehicle: str, colors: dict[str, str]) -> Detections:
-    """Colour names -> UGV ids; colours not in the table are dropped (not our team's)."""
+    """Color names -> UGV ids; colors not in the table are dropped (not our team's)."""
     lms = tuple(Landmark(colors[lm.ugv], lm.x_px, lm.y_px) for lm in det.landmarks if lm.ugv in colors)
     blobs = tuple(replace(b, ugv=colors.get(b.ugv, "")) for b in det.blobs)
     return replace(det, vehicle=vehicle, landmarks=lms, blobs=blobs)
@@ -42,10 +45,10 @@ def relabel(det: Detections, vehicle: str, colors: dict[str, str]) -> Detections
 
 def detections_from(r: UavFrameResult, vehicle: str, seq: int, width_px: int, height_px: int, alt_agl_m: float,
                     colors: dict[str, str]) -> Detections:
-    """A pixel-pipeline result -> the Detections message (colours as UGV ids)."""
+    """A pixel-pipeline result -> the Detections message (colors as UGV ids)."""
     b = r.blobs
     blobs = tuple(Blob(float(c[0]), float(c[1]), *map(float, box), ugv=colors.get(col, ""), area_px=float(a))
-                  for c, box, col, a in zip(b.xy_px, b.xyxy_px, r.blob_colour, b.area_px))
+                  for c, box, col, a in zip(b.xy_px, b.xyxy_px, r.blob_color, b.area_px))
     lms = tuple(Landmark(colors[c], float(x), float(y)) for c, (x, y) in r.landmarks_px.items() if c in colors)
     return Detections(vehicle, r.stamp_s, seq, width_px, height_px, alt_agl_m, lms, blobs)
 
@@ -130,7 +133,7 @@ def run(cfg: VehicleConfig, stop: StopFlag) -> int:
                 if (w, h) != size:   # the focal length in pixels follows the frame size
                     size = (w, h)
                     vision = UavVision(UavVisionConfig(focal_px=PinholeCamera(w, h, u.hfov_deg).focal_px,
-                                                       colours=tuple(u.colors), label_side_m=u.label_side_m))
+                                                       colors=tuple(u.colors), label_side_m=u.label_side_m))
                 r = vision.update(img, stamp, st.alt_agl_m)
                 bus.publish(det_key, detections_from(r, cfg.id, seq, w, h, st.alt_agl_m, u.colors))
                 counts["processed"] += 1

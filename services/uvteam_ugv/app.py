@@ -18,20 +18,23 @@ import time
 import numpy as np
 
 from uvteam import keys
-from uvteam.autopilot import AutopilotLink, fix_from_state
-from uvteam.bus import ZenohBus
-from uvteam.config import VehicleConfig, read_signing_key
+from uvteam.autopilot import fix_from_state
+from uvteam.io.mavlink import AutopilotLink
+from uvteam.io.zenoh_bus import ZenohBus
+from uvteam.config import VehicleConfig
+from uvteam.io.files import read_signing_key
 from uvteam.errors import ConfigError, LinkError
 from uvteam.geo import LocalFrame
 from uvteam.camera import PinholeCamera
-from uvteam.frames import FrameError, open_source
+from uvteam.frames import FrameError
+from uvteam.io.video import open_source
 from uvteam.messages import Crowds, Fix, PeopleSeen, Person, Status
 from uvteam.ugv_localize import focal_px_from_reference, localize_people
 from uvteam.vision.people import PeopleDetector
 from uvteam.planning import plan_stations
 from uvteam.service import StopFlag
 
-from .mission import mission_to_plan, plan_to_mission
+from uvteam.mission import mission_to_plan, plan_to_mission
 
 log = logging.getLogger("uvteam.ugv")
 HOG_BOX_OVER_PERSON = 128.0 / 96.0   # OpenCV's people window is 128 px tall around a ~96 px person

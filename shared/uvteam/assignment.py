@@ -1,6 +1,6 @@
 """Landmark <-> motion-blob assignment (the paper's problem (2)).
 
-Each colour-detected landmark (a UGV's roof label) gets at most one motion blob whose centre lies
+Each color-detected landmark (a UGV's roof label) gets at most one motion blob whose centre lies
 within ``gate_px`` (the paper's epsilon) of it. Among all gated matchings the optimal solver takes
 the ones with the most pairs and, among those, the least total distance (with "at most one" alone the
 empty matching would be optimal, which is not what the paper means). Blobs left unassigned are the

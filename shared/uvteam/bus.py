@@ -1,32 +1,30 @@
-"""The message bus: typed publish/subscribe over zenoh, with an in-memory twin for tests.
+"""The message bus interface: typed publish/subscribe, and an in-memory twin of the zenoh bus.
 
-    bus = ZenohBus.open(BusConfig(config_file="deploy/zenoh/peer.json5", connect=["tcp/10.0.0.1:7447"]))
-    with bus:
+    with bus:                                                   # a Bus: zenoh (uvteam.io.zenoh_bus) or InMemoryBus
         bus.declare_alive(keys.alive(team, vehicle))
         bus.subscribe(keys.all_vehicles(team, "fix"), Fix, on_fix)      # decoded and validated
         bus.publish(keys.key(team, vehicle, "fix"), Fix(...))
 
 A payload that does not decode is logged with its key (rate-limited), counted in ``bus.rejected``
-and dropped; the handler never sees it. Handlers run on zenoh's threads: keep them short (push to a
-queue). Sessions are always closed (an unclosed session with a callback subscriber hangs the
-interpreter at exit), so use the bus as a context manager.
+and dropped; the handler never sees it. Both buses share that decoding (:class:`Decoding`), so what a
+unit test on the in-memory bus sees is what a service on zenoh sees. The in-memory bus delivers
+synchronously on the publisher's thread: the experiment runs the services' own classes over it in
+simulated time, deterministically.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import threading
 import time
 from collections import Counter
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Callable, Protocol
 
 from . import messages
-from .errors import ConfigError, LinkError, MessageError
+from .errors import MessageError
 
-__all__ = ["BusConfig", "Bus", "ZenohBus", "InMemoryBus", "keyexpr_matches", "add_bus_args", "bus_config_from_args"]
+__all__ = ["BusConfig", "Bus", "Decoding", "InMemoryBus", "keyexpr_matches"]
 
 log = logging.getLogger(__name__)
 
@@ -38,55 +36,6 @@ class BusConfig:
     connect: tuple[str, ...] = ()
     listen: tuple[str, ...] = ()
     shared_memory: bool | None = None
-
-    def to_zenoh(self):
-        import zenoh  # noqa: PLC0415
-
-        if self.config_file:
-            path = Path(self.config_file)
-            if not path.is_file():
-                raise ConfigError(str(path), "zenoh config", "file not found")
-            try:
-                conf = zenoh.Config.from_file(str(path))
-            except Exception as exc:  # zenoh raises ZError for any parse/validation problem
-                raise ConfigError(str(path), "zenoh config", str(exc)) from None
-        else:
-            conf = zenoh.Config()
-            conf.insert_json5("scouting/multicast/enabled", "false")
-        try:
-            if self.mode:
-                if self.mode not in ("peer", "client", "router"):
-                    raise ConfigError("--mode", "mode", f"must be peer, client or router, got {self.mode!r}")
-                conf.insert_json5("mode", json.dumps(self.mode))
-            if self.connect:
-                conf.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
-            if self.listen:
-                conf.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
-            if self.shared_memory is not None:
-                conf.insert_json5("transport/shared_memory/enabled", json.dumps(self.shared_memory))
-        except ConfigError:
-            raise
-        except Exception as exc:
-            raise ConfigError(self.config_file or "<zenoh>", "endpoints", str(exc)) from None
-        return conf
-
-
-def add_bus_args(ap) -> None:
-    """The same zenoh flags on every command, as zenoh's own examples have them."""
-    g = ap.add_argument_group("zenoh")
-    g.add_argument("--zenoh-config", metavar="FILE", help="zenoh JSON5 config (see deploy/zenoh/)")
-    g.add_argument("--mode", choices=["peer", "client", "router"], help="zenoh session mode")
-    g.add_argument("--connect", "-e", action="append", default=[], metavar="ENDPOINT",
-                   help="endpoint to connect to, e.g. tcp/192.168.1.10:7447 (repeatable)")
-    g.add_argument("--listen", "-l", action="append", default=[], metavar="ENDPOINT",
-                   help="endpoint to listen on, e.g. tcp/0.0.0.0:7447 (repeatable)")
-
-
-def bus_config_from_args(args, base: BusConfig | None = None) -> BusConfig:
-    base = base or BusConfig()
-    return BusConfig(config_file=args.zenoh_config or base.config_file, mode=args.mode or base.mode,
-                     connect=tuple(args.connect) or base.connect, listen=tuple(args.listen) or base.listen,
-                     shared_memory=base.shared_memory)
 
 
 class Bus(Protocol):
@@ -114,7 +63,7 @@ class _RateLimitedLog:
         log.warning(fmt, *args)
 
 
-class _Decoding:
+class Decoding:
     """Decode-validate-count, shared by the zenoh bus and the in-memory one."""
 
     def __init__(self) -> None:
@@ -145,88 +94,6 @@ class _Decoding:
             return sum(self.rejected.values())
 
 
-class ZenohBus(_Decoding):
-    def __init__(self, session) -> None:
-        super().__init__()
-        import zenoh  # noqa: PLC0415
-
-        self._zenoh = zenoh
-        self.session = session
-        self._encoding = zenoh.Encoding(messages.ENCODING)
-        self._pubs: dict[str, Any] = {}
-        self._subs: list[Any] = []
-        self._tokens: list[Any] = []
-        self._closed = False
-
-    @classmethod
-    def open(cls, cfg: BusConfig) -> "ZenohBus":
-        import zenoh  # noqa: PLC0415
-
-        try:
-            return cls(zenoh.open(cfg.to_zenoh()))
-        except ConfigError:
-            raise
-        except Exception as exc:  # ZError: unable to connect, bad endpoint
-            raise LinkError("zenoh", str(exc)) from None
-
-    def __enter__(self) -> "ZenohBus":
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
-
-    def publish(self, key: str, msg: Any, *, express: bool = True) -> None:
-        raw = messages.encode(msg)
-        pub = self._pubs.get(key)
-        if pub is None:
-            pub = self.session.declare_publisher(
-                key, encoding=self._encoding, express=express,
-                congestion_control=self._zenoh.CongestionControl.BLOCK)
-            self._pubs[key] = pub
-        pub.put(raw)
-        self.published += 1
-
-    def put_raw(self, key: str, raw: bytes) -> None:
-        """Send arbitrary bytes (tests and fault injection only)."""
-        self.session.put(key, raw, encoding=self._encoding)
-
-    def subscribe(self, keyexpr: str, cls: type, handler: Callable[[str, Any], None]) -> None:
-        def on_sample(sample) -> None:
-            self._deliver(str(sample.key_expr), sample.payload.to_bytes(), cls, handler)
-
-        self._subs.append(self.session.declare_subscriber(keyexpr, on_sample))
-
-    def declare_alive(self, key: str) -> None:
-        self._tokens.append(self.session.liveliness().declare_token(key))
-
-    def watch_alive(self, keyexpr: str, handler: Callable[[str, bool], None]) -> None:
-        put = self._zenoh.SampleKind.PUT
-
-        def on_sample(sample) -> None:
-            try:
-                handler(str(sample.key_expr), sample.kind == put)
-            except Exception:
-                log.exception("liveliness handler for %s failed", sample.key_expr)
-
-        self._subs.append(self.session.liveliness().declare_subscriber(keyexpr, on_sample, history=True))
-
-    def close(self) -> None:
-        if self._closed:
-            return
-        self._closed = True
-        for s in self._subs:
-            try:
-                s.undeclare()
-            except Exception:  # already gone with the session
-                pass
-        for t in self._tokens:
-            try:
-                t.undeclare()
-            except Exception:
-                pass
-        self.session.close()
-
-
 def keyexpr_matches(expr: str, key: str) -> bool:
     """zenoh key-expression match for the forms uvteam uses: literal chunks, '*' and '**'."""
     e, k = expr.split("/"), key.split("/")
@@ -243,7 +110,7 @@ def keyexpr_matches(expr: str, key: str) -> bool:
     return m(0, 0)
 
 
-class InMemoryBus(_Decoding):
+class InMemoryBus(Decoding):
     """The same interface in one process, synchronous: for unit tests of service logic."""
 
     def __init__(self, hub: "InMemoryBus | None" = None) -> None:

@@ -5,14 +5,13 @@ Unknown or missing keys are errors naming the file and the key; defaults < file 
     [vehicle]   team, id, role ("uav" | "ugv" | "localizer")
     [bus]       zenoh_config, mode, connect, listen                      (all optional)
     [autopilot] url, system_id, component_id, signing_key_file, link_timeout_s
-    [uav]       detector, colors (colour -> UGV id), camera, ...         (role uav)
+    [uav]       detector, colors (color -> UGV id), camera, ...         (role uav)
     [ugv]       uav, team_ugvs, station_radius_m, max_speed_m_s, ...     (role ugv)
     [localizer] uav, ugvs, origin_lat_deg, origin_lon_deg, gate_px, ...  (role localizer)
 """
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import MISSING, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -21,7 +20,7 @@ from .bus import BusConfig
 from .errors import ConfigError
 from .keys import check_id
 
-__all__ = ["VehicleConfig", "AutopilotConfig", "UavConfig", "UgvConfig", "LocalizerServiceConfig", "load_vehicle_config"]
+__all__ = ["VehicleConfig", "AutopilotConfig", "UavConfig", "UgvConfig", "LocalizerServiceConfig"]
 
 
 @dataclass(frozen=True)
@@ -36,7 +35,7 @@ class AutopilotConfig:
 @dataclass(frozen=True)
 class UavConfig:
     detector: str = "sim-sensor"           # "sim-sensor" | "pixels"
-    colors: dict = field(default_factory=dict)   # colour name -> UGV id
+    colors: dict = field(default_factory=dict)   # color name -> UGV id
     camera: str = "zenoh"                  # frames for "pixels": "zenoh" (the bus key .../frame), device:N, a file, rtsp://, gst:
     hfov_deg: float = 78.0                 # the camera's horizontal field of view (no distortion)
     label_side_m: float = 1.0              # side of the UGVs' square roof labels
@@ -120,21 +119,10 @@ def _section(cls, data: Any, src: str, name: str):
     return cls(**kw)
 
 
-def read_toml(path: str | Path) -> dict:
-    """A TOML file as a dict, or ConfigError naming the file."""
-    p = Path(path)
-    try:
-        return tomllib.loads(p.read_text())
-    except (FileNotFoundError, IsADirectoryError):
-        raise ConfigError(str(p), "<file>", "not found") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(str(p), "<file>", f"not TOML: {exc}") from None
-
-
-def load_vehicle_config(path: str | Path, *, bus_override: BusConfig | None = None) -> VehicleConfig:
-    p = Path(path)
-    src = str(p)
-    raw = read_toml(p)
+def vehicle_config_from_dict(raw: dict, src: str, *, base_dir: Path | None = None,
+                             bus_override: BusConfig | None = None) -> VehicleConfig:
+    """A parsed vehicle TOML -> a checked VehicleConfig, or ConfigError naming ``src`` and the key.
+    A relative ``bus.zenoh_config`` is taken relative to ``base_dir`` (the file's folder)."""
     allowed = {"vehicle", "bus", "autopilot", "uav", "ugv", "localizer"}
     for k in raw:
         if k not in allowed:
@@ -162,8 +150,8 @@ def load_vehicle_config(path: str | Path, *, bus_override: BusConfig | None = No
             if k not in ("zenoh_config", "mode", "connect", "listen"):
                 raise ConfigError(src, f"bus.{k}", "unknown key")
         zc = b.get("zenoh_config") or None
-        if zc and not Path(zc).is_absolute():
-            zc = str((p.parent / zc).resolve()) if (p.parent / zc).exists() else zc
+        if zc and base_dir is not None and not Path(zc).is_absolute():
+            zc = str((base_dir / zc).resolve())
         bus = BusConfig(config_file=zc, mode=b.get("mode"), connect=tuple(b.get("connect", ())),
                         listen=tuple(b.get("listen", ())))
     if bus_override is not None:
@@ -179,24 +167,11 @@ def load_vehicle_config(path: str | Path, *, bus_override: BusConfig | None = No
         source=src)
     if cfg.role in ("uav", "ugv") and not cfg.autopilot.url:
         raise ConfigError(src, "autopilot.url", f"a {cfg.role} needs its autopilot link")
-    for colour, ugv in cfg.uav.colors.items():
-        check_id(f"uav.colors.{colour}", ugv)
+    for color, ugv in cfg.uav.colors.items():
+        check_id(f"uav.colors.{color}", ugv)
     if cfg.localizer.image_coordinates not in ("motion", "color"):
         raise ConfigError(src, "localizer.image_coordinates", "must be motion or color")
     return cfg
 
 
-def read_signing_key(cfg: VehicleConfig) -> bytes | None:
-    if not cfg.autopilot.signing_key_file:
-        return None
-    kp = Path(cfg.autopilot.signing_key_file)
-    try:
-        key = kp.read_bytes()
-    except OSError as exc:
-        raise ConfigError(cfg.source, "autopilot.signing_key_file", str(exc)) from None
-    if len(key) != 32:
-        raise ConfigError(cfg.source, "autopilot.signing_key_file", f"a signing key has 32 bytes, got {len(key)}")
-    return key
-
-
-__all__ += ["read_signing_key", "read_toml"]
+__all__ += ["vehicle_config_from_dict"]

@@ -3,7 +3,7 @@ propagates into every crowd's 95 % radius. One table per detector, declared once
 
 - ``PIXEL_SIGMA_M``: the pixel pipeline (:mod:`uvteam.vision.uav`), in ground metres per axis (so it
   holds at any altitude), measured on rendered frames against the true positions (paper-fig7-alt50,
-  seed 1, ``uvteam experiment --detector pixels``): colour-label centres 0.02 m; a UGV's motion-blob
+  seed 1, ``uvteam experiment --detector pixels``): color-label centres 0.02 m; a UGV's motion-blob
   centre 0.2 m; a crowd's blob centre 0.57 m median off its members' centroid (unequal contrast of the
   walkers and their shadows), so 0.4 m per axis covers 95 %.
 - ``SENSOR_MODEL_SIGMA_PX``: the simulator's sensor model, which stands in for a detector when no
@@ -14,8 +14,8 @@ from __future__ import annotations
 
 __all__ = ["PIXEL_SIGMA_M", "SENSOR_MODEL_SIGMA_PX", "DETECTORS", "localizer_sigmas_px"]
 
-PIXEL_SIGMA_M = {"colour": 0.03, "ugv_blob": 0.25, "crowd_blob": 0.4}
-SENSOR_MODEL_SIGMA_PX = {"colour": 0.5, "ugv_blob": 1.0, "crowd_blob": 1.5}
+PIXEL_SIGMA_M = {"color": 0.03, "ugv_blob": 0.25, "crowd_blob": 0.4}
+SENSOR_MODEL_SIGMA_PX = {"color": 0.5, "ugv_blob": 1.0, "crowd_blob": 1.5}
 DETECTORS = ("pixels", "sensor")
 
 
@@ -25,7 +25,7 @@ def localizer_sigmas_px(detector: str, image_coordinates: str, alt_agl_m: float,
         raise ValueError(f"detector must be one of {DETECTORS}, got {detector!r}")
     if image_coordinates not in ("motion", "color"):
         raise ValueError(f"image_coordinates must be 'motion' or 'color', got {image_coordinates!r}")
-    lm = "ugv_blob" if image_coordinates == "motion" else "colour"
+    lm = "ugv_blob" if image_coordinates == "motion" else "color"
     if detector == "sensor":
         return SENSOR_MODEL_SIGMA_PX[lm], SENSOR_MODEL_SIGMA_PX["crowd_blob"]
     if not (alt_agl_m > 0 and focal_px > 0):

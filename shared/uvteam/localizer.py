@@ -6,13 +6,13 @@ Per frame (:func:`localize_step`):
    extrapolation past the newest fix (fix latency); when fixes are late or missing, its planned
    waypoints for at most one tracking interval after the newest fix (the paper's rule); else unusable.
 2. Landmark <-> blob assignment: a blob in which the detector saw a UGV's roof label is that UGV's;
-   the rest solved afresh at the start of each tracking interval from the colour
+   the rest solved afresh at the start of each tracking interval from the color
    centres; inside the interval the pairing is kept by continuity (each UGV's previous motion-blob
-   centre predicts where its blob is now), so a UGV whose colour flickers keeps its blob.
+   centre predicts where its blob is now), so a UGV whose color flickers keeps its blob.
    Every blob within the gate of a landmark is a UGV, never a crowd, unless the detector labelled
    another blob as that UGV's (it carved the UGV out of a crowd it drove into: what is left beside
    it is crowd); so is a blob whose box holds, or whose centre is near, the projected position of a
-   UGV that was seen neither by colour nor by an assigned blob in this frame.
+   UGV that was seen neither by color nor by an assigned blob in this frame.
 3. The transform from >= 4 usable landmarks: exact (4), least squares (> 4), robust with named
    outliers (>= 5). With fewer, the last good transform is held for ``hold_max_s`` and flagged HELD.
 4. Every remaining blob mapped to lat/lon (centre and box footprint) with a 95 % radius from the fit's
@@ -61,7 +61,7 @@ class FrameObservation:
     """One UAV frame's detections."""
 
     stamp_s: float                          # capture time
-    landmarks_px: dict[str, tuple[float, float]]  # UGV id -> colour-blob centre
+    landmarks_px: dict[str, tuple[float, float]]  # UGV id -> color-blob centre
     blob_xy_px: np.ndarray                  # (N, 2) motion-blob centres
     blob_xyxy_px: np.ndarray                # (N, 4) motion-blob boxes
     blob_ugv: tuple[str, ...] = ()          # per blob: the UGV whose roof label the detector saw in it, or ""
@@ -204,7 +204,7 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: dict[str
     prev = {u: (x, y) for u, x, y in state.blob_px_of_ugv}
     ref: dict[str, tuple[float, float]] = dict(obs.landmarks_px)
     if not new_interval:
-        ref.update(prev)  # the previous blob predicts the current one better than a flickering colour
+        ref.update(prev)  # the previous blob predicts the current one better than a flickering color
     # blobs the detector already knows to be a UGV (its roof label lies in the blob) are that UGV's
     labelled = {u: j for j, u in enumerate(obs.blob_ugv[:nb]) if u}
     to_assign = sorted(u for u in ref if u not in labelled)
@@ -215,7 +215,7 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: dict[str
     gated = np.zeros(nb, bool)
     gated[free] = asg.gated_blobs
     gated[list(labelled.values())] = True
-    # colour centres gate blobs too, whatever the continuity says; but not those of UGVs the detector
+    # color centres gate blobs too, whatever the continuity says; but not those of UGVs the detector
     # found a blob for: it carved that UGV out of whatever it drove through, so the rest is not the UGV
     col = [xy for u, xy in obs.landmarks_px.items() if u not in labelled]
     if col and nb:
@@ -228,9 +228,9 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: dict[str
     # landmark image coordinates
     lm_px: dict[str, np.ndarray] = {}
     for u in sorted(ref):
-        colour = obs.landmarks_px.get(u)
+        color = obs.landmarks_px.get(u)
         motion = blobs[blob_of_ugv[u]] if u in blob_of_ugv else None
-        first, second = (motion, colour) if cfg.image_coordinates == "motion" else (colour, motion)
+        first, second = (motion, color) if cfg.image_coordinates == "motion" else (color, motion)
         chosen = first if first is not None else second
         if chosen is not None:
             lm_px[u] = np.asarray(chosen, float)
@@ -266,7 +266,7 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: dict[str
 
     crowds: list[CrowdEstimate] = []
     if fit is not None and nb:
-        # a UGV whose colour was missed and that holds no assigned blob: a blob whose box holds its
+        # a UGV whose color was missed and that holds no assigned blob: a blob whose box holds its
         # projected position, or near it, is that UGV, never a crowd (a UGV that was seen is not looked
         # for in other blobs: the detector carves a UGV out of a crowd it drives through)
         unseen = [u for u in positions if u not in obs.landmarks_px and u not in blob_of_ugv]

@@ -68,7 +68,7 @@ class Plan:
 @dataclass(frozen=True, slots=True)
 class Landmark:
     SCHEMA: ClassVar[str] = "landmark/1"
-    ugv: str                # which UGV's roof colour
+    ugv: str                # which UGV's roof color
     x_px: float
     y_px: float
 
@@ -90,7 +90,7 @@ class Blob:
 
 @dataclass(frozen=True, slots=True)
 class Detections:
-    """One UAV frame's colour landmarks and motion blobs. Key: uvteam/<team>/<uav>/detections."""
+    """One UAV frame's color landmarks and motion blobs. Key: uvteam/<team>/<uav>/detections."""
 
     SCHEMA: ClassVar[str] = "detections/1"
     vehicle: str

@@ -8,12 +8,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from pathlib import Path
 
-from uvteam.config import read_toml
 from uvteam.errors import ConfigError
 
-__all__ = ["Scenario", "load_scenario"]
+__all__ = ["Scenario", "scenario_from_dict"]
 
 
 @dataclass(frozen=True)
@@ -135,10 +133,8 @@ def _section(cls, data, src: str, where: str):
     return cls(**kw)
 
 
-def load_scenario(path: str | Path) -> Scenario:
-    p = Path(path)
-    src = str(p)
-    raw = read_toml(p)
+def scenario_from_dict(raw: dict, src: str) -> Scenario:
+    """A parsed scenario TOML -> a checked Scenario, or ConfigError naming ``src`` and the key."""
     top = {"name", "paper_mean_error_m", "world", "run", "uav", "camera", "ugvs", "gnss", "crowds", "landmarks", "events"}
     for k in raw:
         if k not in top:
@@ -163,7 +159,7 @@ def _validate(sc: Scenario, src: str) -> None:
         if not cond:
             raise ConfigError(src, key, why)
 
-    need(sc.ugvs.count == len(sc.ugvs.colors), "ugvs.colors", f"needs {sc.ugvs.count} colours")
+    need(sc.ugvs.count == len(sc.ugvs.colors), "ugvs.colors", f"needs {sc.ugvs.count} colors")
     need(sc.ugvs.count >= 1, "ugvs.count", "at least one UGV")
     need(sc.uav.follow in ("crowd-lagged", "crowd", "fixed"), "uav.follow", "crowd-lagged, crowd or fixed")
     need(sc.landmarks.image_coordinates in ("motion", "color"), "landmarks.image_coordinates", "motion or color")

@@ -10,8 +10,9 @@ import sys
 import threading
 from typing import Callable
 
-from .bus import add_bus_args, bus_config_from_args
-from .config import VehicleConfig, load_vehicle_config
+from .io.files import load_vehicle_config
+from .io.zenoh_bus import add_bus_args, bus_config_from_args
+from .config import VehicleConfig
 from .errors import ConfigError, LinkError
 
 __all__ = ["service_main", "StopFlag", "setup_logging"]

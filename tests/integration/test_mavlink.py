@@ -6,7 +6,8 @@ import time
 
 import pytest
 
-from uvteam.autopilot import AutopilotLink, MissionItem, mavlink2
+from uvteam.autopilot import MissionItem, mavlink2
+from uvteam.io.mavlink import AutopilotLink
 from uvteam_sim.autopilot import SimAutopilot
 
 

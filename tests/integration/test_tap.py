@@ -9,7 +9,8 @@ import time
 import pytest
 
 from uvteam import keys
-from uvteam.bus import BusConfig, ZenohBus
+from uvteam.bus import BusConfig
+from uvteam.io.zenoh_bus import ZenohBus
 from uvteam.messages import Crowd, Crowds, Fix, Frame, Status
 
 pytestmark = pytest.mark.integration

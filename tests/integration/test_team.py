@@ -14,7 +14,8 @@ from pathlib import Path
 import pytest
 
 from uvteam import keys
-from uvteam.bus import BusConfig, ZenohBus
+from uvteam.bus import BusConfig
+from uvteam.io.zenoh_bus import ZenohBus
 from uvteam.messages import Crowds, Frame, Truth
 from uvteam.service import StopFlag
 from uvteam_ground.demo import Team, run_demo
@@ -140,5 +141,5 @@ def test_killed_ugv_seen_within_1s_and_localizer_carries_on(team_run):
     later = [m for w, m in record["crowds"] if w > kill + 1.5]
     assert len(later) > 20
     assert all("ugv6" not in m.landmarks_used for m in later)
-    # the dead UGV's vehicle still stands in view (its colour gates blobs near it): most frames, not all
+    # the dead UGV's vehicle still stands in view (its color gates blobs near it): most frames, not all
     assert sum(bool(m.crowds) for m in later) >= 0.8 * len(later)

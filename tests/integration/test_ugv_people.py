@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from uvteam import keys
-from uvteam.bus import BusConfig, ZenohBus
+from uvteam.bus import BusConfig
+from uvteam.io.zenoh_bus import ZenohBus
 from uvteam.geo import LocalFrame
 from uvteam.messages import PeopleSeen, Status
 from uvteam_sim.autopilot import SimAutopilot

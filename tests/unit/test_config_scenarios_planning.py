@@ -3,12 +3,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uvteam.config import load_vehicle_config
+from uvteam.io.files import load_vehicle_config
 from uvteam.errors import ConfigError
 from uvteam.geo import LocalFrame
 from uvteam.planning import plan_stations
-from uvteam.scenario import load_scenario
-from uvteam_ugv.mission import mission_to_plan, plan_to_mission
+from uvteam.io.files import load_scenario
+from uvteam.mission import mission_to_plan, plan_to_mission
 
 REPO = Path(__file__).resolve().parents[2]
 SCENARIOS = sorted((REPO.parent / "shared" / "scenarios").glob("*.toml")) + [REPO / "deploy" / "scenarios" / "demo.toml"]

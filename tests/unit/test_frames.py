@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from uvteam.errors import MessageError
-from uvteam.frames import FrameError, encode_frame, frame_pixels, open_source
+from uvteam.frames import FrameError, encode_frame, frame_pixels
+from uvteam.io.video import open_source
 from uvteam.messages import Frame, decode, encode
 
 

@@ -21,14 +21,14 @@ def track_at(en, t0=0.0, t1=2.0, sigma=0.0, velocity=(0.0, 0.0)):
     return UgvTrack(ts, pos, np.full(len(ts), sigma))
 
 
-def observation(t, ugvs=UGVS, crowd=CROWD, colour=None):
+def observation(t, ugvs=UGVS, crowd=CROWD, color=None):
     names = list(ugvs)
     lm_px = project(CAM, POSE, np.array([ugvs[u] for u in names]))
     crowd_px = project(CAM, POSE, crowd)
     blobs = np.vstack([lm_px, crowd_px])
     boxes = np.column_stack([blobs - 15, blobs + 15])
-    colour = names if colour is None else colour
-    return FrameObservation(t, {u: tuple(lm_px[names.index(u)]) for u in colour}, blobs, boxes)
+    color = names if color is None else color
+    return FrameObservation(t, {u: tuple(lm_px[names.index(u)]) for u in color}, blobs, boxes)
 
 
 def cfg(**kw):
@@ -105,21 +105,21 @@ def test_ugv_position_sources(t, with_velocity, source, expect_en):
             assert sigma >= c.max_ugv_speed_m_s * 0.2 / 2 - 1e-9
 
 
-def test_continuity_keeps_pairing_when_colour_flickers():
+def test_continuity_keeps_pairing_when_color_flickers():
     tracks = {u: track_at(p) for u, p in UGVS.items()}
     c = cfg(tracking_interval_s=1.0)
     st, res = localize_step(LocalizerState(), observation(1.0), tracks, c)
     assert set(res.blob_of_ugv) == set(UGVS)
-    # inside the interval, two colours are missed; the motion blobs keep their UGVs
-    st, res2 = localize_step(st, observation(1.1, colour=["red", "green", "blue", "yellow"]), tracks, c)
+    # inside the interval, two colors are missed; the motion blobs keep their UGVs
+    st, res2 = localize_step(st, observation(1.1, color=["red", "green", "blue", "yellow"]), tracks, c)
     assert set(res2.blob_of_ugv) == set(UGVS) and len(res2.crowds) == 1
     assert res2.quality == FitQuality.LEAST_SQUARES
 
 
-def test_ugv_without_colour_or_pairing_is_not_a_crowd():
-    # at the start of an interval a UGV's colour is missed: its projected position gates its blob
+def test_ugv_without_color_or_pairing_is_not_a_crowd():
+    # at the start of an interval a UGV's color is missed: its projected position gates its blob
     tracks = {u: track_at(p) for u, p in UGVS.items()}
-    _, res = localize_step(LocalizerState(), observation(1.0, colour=["red", "green", "blue", "yellow", "magenta"]),
+    _, res = localize_step(LocalizerState(), observation(1.0, color=["red", "green", "blue", "yellow", "magenta"]),
                            tracks, cfg())
     assert len(res.crowds) == 1
     assert np.hypot(res.crowds[0].east_m - 2.0, res.crowds[0].north_m - 3.0) < 1e-6
@@ -161,9 +161,9 @@ def test_a_blob_labelled_as_a_ugv_is_that_ugv_even_beyond_the_gate():
     assert 0 in [c.blob_index for c in out.crowds]
 
 
-def test_a_ugv_seen_by_colour_does_not_swallow_a_crowd_whose_box_holds_it():
+def test_a_ugv_seen_by_color_does_not_swallow_a_crowd_whose_box_holds_it():
     # a UGV driving through a crowd: the detector carved it out, so the crowd's box holds the UGV's
-    # position; the UGV was seen (colour + its own blob), so the crowd's blob is still a crowd
+    # position; the UGV was seen (color + its own blob), so the crowd's blob is still a crowd
     ugvs = dict(UGVS)
     ugvs["red"] = (2.5, 3.0)          # beside the crowd's centre (2, 3)
     tracks = {u: track_at(en) for u, en in ugvs.items()}
@@ -177,10 +177,10 @@ def test_a_ugv_seen_by_colour_does_not_swallow_a_crowd_whose_box_holds_it():
     assert [c.blob_index for c in out.crowds] == [len(blobs) - 1]
 
 
-def test_a_crowd_beside_a_labelled_ugv_is_not_gated_by_its_colour():
+def test_a_crowd_beside_a_labelled_ugv_is_not_gated_by_its_color():
     # a UGV inside a crowd's edge: the detector carved it out (its own labelled blob), and the crowd's
-    # remaining blob is centred 15 px from the UGV's colour centre, inside the 25 px gate. The label
-    # says which blob is the UGV, so the crowd is still reported; without the label the colour gate
+    # remaining blob is centred 15 px from the UGV's color centre, inside the 25 px gate. The label
+    # says which blob is the UGV, so the crowd is still reported; without the label the color gate
     # (rightly, when nothing else is known) makes that blob the UGV's
     ugvs = dict(UGVS)
     ugvs["red"] = (2.5, 3.0)

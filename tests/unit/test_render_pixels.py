@@ -1,8 +1,8 @@
 """The simulator's renderer and the UAV pixel pipeline on its frames.
 
 The renderer is checked against the camera model (every pixel's ground point projects back onto that
-pixel, with terrain relief and gimbal jitter), the colour detector against the projected roof labels,
-and the whole pipeline (render -> motion + colour -> localizer) on a short stretch of a paper scenario.
+pixel, with terrain relief and gimbal jitter), the color detector against the projected roof labels,
+and the whole pipeline (render -> motion + color -> localizer) on a short stretch of a paper scenario.
 """
 
 from dataclasses import replace
@@ -18,7 +18,7 @@ from uvteam.vision.uav import UavVisionConfig, landmark_config
 from uvteam_sim.experiment import run_scenario_seed, summarize
 from uvteam_sim.pixels import pixel_detector
 from uvteam_sim.render import LABEL_BGR, Renderer
-from uvteam.scenario import load_scenario
+from uvteam.io.files import load_scenario
 from uvteam_sim.world import SimWorld
 
 SCENARIOS = Path(__file__).resolve().parents[3] / "shared" / "scenarios"
@@ -64,7 +64,7 @@ def test_roof_labels_found_where_they_are(name):
 
 @pytest.mark.parametrize("name", ["paper-fig7-alt200", "paper-fig7-alt50", "field-alt100-lm6"])
 def test_ground_and_walkers_never_look_like_a_roof_label(name):
-    # walkers wear any colour, green or magenta shirts included: the label's size keeps them out
+    # walkers wear any color, green or magenta shirts included: the label's size keeps them out
     w = _world(name)
     w.ugv_p[:] = 1e4   # out of view
     r = Renderer(w, np.random.default_rng(5))
@@ -83,7 +83,7 @@ def test_frames_are_seeded():
 
 @pytest.mark.parametrize("name, max_mean_m", [("paper-fig7-alt200", 1.5), ("paper-fig7-alt50", 1.0)])
 def test_pixel_pipeline_localizes_the_crowd(name, max_mean_m):
-    # 10 s of the scenario, one seed: rendered frames -> motion + colour detection -> localizer
+    # 10 s of the scenario, one seed: rendered frames -> motion + color detection -> localizer
     sc = load_scenario(SCENARIOS / f"{name}.toml")
     sc = replace(sc, run=replace(sc.run, duration_s=10.0))
     s = summarize([run_scenario_seed(sc, 2, detector=pixel_detector())])

@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
-from uvteam.vision.landmarks import DEFAULT_COLOURS, LandmarkConfig, detect_landmarks
+from uvteam.vision.landmarks import DEFAULT_COLORS, LandmarkConfig, detect_landmarks
 from uvteam.vision.motion import MotionConfig, MotionDetector, bounds_for_altitude
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
@@ -125,7 +125,7 @@ def test_vtest_walkers_found():
     assert np.mean(counts[5:]) >= GOLDEN["vtest_min_blobs_per_frame"]
 
 
-def test_colour_landmarks_on_a_rendered_roof():
+def test_color_landmarks_on_a_rendered_roof():
     img = texture(360, 640)
     cols = {"red": (0, 0, 230), "green": (0, 200, 0), "blue": (230, 60, 0), "yellow": (0, 220, 230),
             "magenta": (220, 0, 220), "cyan": (230, 220, 0)}
@@ -141,12 +141,12 @@ def test_colour_landmarks_on_a_rendered_roof():
     assert set(detect_landmarks(texture(360, 640), LandmarkConfig())) == set()  # grey ground: no roofs
     with pytest.raises(KeyError):
         detect_landmarks(img, LandmarkConfig(), wanted=("purple",))
-    assert set(DEFAULT_COLOURS) == set(cols)
+    assert set(DEFAULT_COLORS) == set(cols)
 
 
 def test_a_vehicle_driving_through_a_crowd_is_carved_out_and_labelled():
     # a static camera over texture; a crowd of nine dark walkers moving right and a vehicle crossing
-    # them downwards. Without carving they make one blob; with the vehicle's colour point carved out,
+    # them downwards. Without carving they make one blob; with the vehicle's color point carved out,
     # the crowd stays one blob (labelled -1) and the vehicle is its own blob (labelled 0).
     ground = texture(720, 1280, seed=4)
     walkers = np.array([[600 + 30 * i, 330 + 30 * j] for i in range(3) for j in range(3)], float)

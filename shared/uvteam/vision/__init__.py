@@ -1,1 +1,1 @@
-"""Image processing: UAV motion detection, colour landmarks, UGV people detection."""
+"""Image processing: UAV motion detection, color landmarks, UGV people detection."""

@@ -201,7 +201,7 @@ class MotionDetector:
 
     def update(self, frame: np.ndarray, stamp_s: float, carve_xy_px: np.ndarray | None = None,
                carve_radius_px: float = 0.0) -> MotionBlobs:
-        """Blobs moving in ``frame``. ``carve_xy_px`` (full-resolution points, e.g. colour-detected
+        """Blobs moving in ``frame``. ``carve_xy_px`` (full-resolution points, e.g. color-detected
         vehicles) split a blob that holds one of them and is more than the carved disc: the moving
         pixels within ``carve_radius_px`` of the point become a blob of their own, the rest another, so
         a vehicle driving through a crowd neither hides the crowd nor is reported as part of it; what is

@@ -1,13 +1,13 @@
-"""The UAV's pixel pipeline: one frame in, colour landmarks and motion blobs out. No I/O, no clock.
+"""The UAV's pixel pipeline: one frame in, color landmarks and motion blobs out. No I/O, no clock.
 
 :class:`UavVision` holds the motion detector's state and sizes its bounds from the altitude the
 caller passes with each frame (the autopilot's height above ground): blob area bounds (at least
 ``min_crowd_m2`` of moving ground, about three people: a lone walker is not a crowd), the kernel that
 joins a crowd's members into one blob, and the processing scale (full resolution when a person would
 be under 3 pixels at half scale, otherwise half). The detector is rebuilt, losing its one frame of
-history, only when the altitude changes by more than 15 %. Colour landmarks are found first and
+history, only when the altitude changes by more than 15 %. Color landmarks are found first and
 carved out of the motion blobs that hold them (:meth:`MotionDetector.update`), so a UGV passing
-through a crowd leaves the crowd's blob intact beside its own. Colour-label area bounds come from the
+through a crowd leaves the crowd's blob intact beside its own. Color-label area bounds come from the
 label's side and the altitude too, so a shrub of the right hue but the wrong size is not a landmark.
 """
 
@@ -27,7 +27,7 @@ __all__ = ["UavVisionConfig", "UavVision", "UavFrameResult", "landmark_config"]
 @dataclass(frozen=True, slots=True)
 class UavVisionConfig:
     focal_px: float
-    colours: tuple[str, ...]                  # the roof colours to look for
+    colors: tuple[str, ...]                  # the roof colors to look for
     label_side_m: float = 1.0
     vehicle_radius_m: float = 2.0             # a UGV with its shadow, around its roof label
     person_m: float = 0.5
@@ -42,22 +42,22 @@ class UavVisionConfig:
     def __post_init__(self) -> None:
         if not self.focal_px > 0:
             raise ValueError(f"focal_px must be > 0, got {self.focal_px}")
-        unknown = [c for c in self.colours if c not in self.landmarks.colours]
+        unknown = [c for c in self.colors if c not in self.landmarks.colors]
         if unknown:
-            raise ValueError(f"no HSV range for colours {unknown}; known: {', '.join(self.landmarks.colours)}")
+            raise ValueError(f"no HSV range for colors {unknown}; known: {', '.join(self.landmarks.colors)}")
 
 
 @dataclass(frozen=True, slots=True)
 class UavFrameResult:
     stamp_s: float
-    landmarks_px: dict[str, tuple[float, float]]     # colour -> centre
+    landmarks_px: dict[str, tuple[float, float]]     # color -> centre
     blobs: MotionBlobs
-    blob_colour: tuple[str, ...]                      # per blob: the colour of the UGV it is, or ""
+    blob_color: tuple[str, ...]                      # per blob: the color of the UGV it is, or ""
 
 
 def landmark_config(cfg: UavVisionConfig, alt_agl_m: float) -> LandmarkConfig:
-    """Colour-blob area bounds for a roof label of ``label_side_m`` seen from this altitude: a quarter to
-    four times its area, so a walker in a shirt of a label's colour (a tenth of it) is not a landmark."""
+    """Color-blob area bounds for a roof label of ``label_side_m`` seen from this altitude: a quarter to
+    four times its area, so a walker in a shirt of a label's color (a tenth of it) is not a landmark."""
     label_px2 = (cfg.label_side_m * cfg.focal_px / alt_agl_m) ** 2
     return replace(cfg.landmarks, min_area_px=max(3.0, 0.25 * label_px2), max_area_px=4.0 * label_px2 + 25.0)
 
@@ -89,7 +89,7 @@ class UavVision:
             raise ValueError(f"alt_agl_m must be a finite height above 1 m, got {alt_agl_m}")
         if self._alt_m is None or abs(alt_agl_m - self._alt_m) > 0.15 * self._alt_m:
             self._configure(alt_agl_m)
-        lms = detect_landmarks(frame_bgr, self._lm_cfg, self.cfg.colours)
+        lms = detect_landmarks(frame_bgr, self._lm_cfg, self.cfg.colors)
         names = list(lms)
         carve = np.array([lms[c] for c in names], float).reshape(-1, 2)
         blobs = self._motion.update(frame_bgr, stamp_s, carve, self.cfg.vehicle_radius_m * self.cfg.focal_px / alt_agl_m)

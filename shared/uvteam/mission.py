@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from uvteam.autopilot import MAV_CMD_DO_CHANGE_SPEED, MAV_CMD_NAV_WAYPOINT, MissionItem
-from uvteam.geo import LocalFrame
-from uvteam.messages import Plan, Waypoint
-from uvteam.planning import StationPlan
+from .autopilot import MAV_CMD_DO_CHANGE_SPEED, MAV_CMD_NAV_WAYPOINT, MissionItem
+from .geo import LocalFrame
+from .messages import Plan, Waypoint
+from .planning import StationPlan
 
 __all__ = ["plan_to_mission", "mission_to_plan"]
 

@@ -1,0 +1,159 @@
+"""The zenoh bus: :class:`uvteam.bus.Bus` over an eclipse-zenoh session, and zenoh's command-line flags.
+
+    with ZenohBus.open(BusConfig(config_file="deploy/zenoh/peer.json5", connect=("tcp/10.0.0.1:7447",))) as bus:
+        ...
+
+Handlers run on zenoh's threads: keep them short (push to a queue). Sessions are always closed (an
+unclosed session with a callback subscriber hangs the interpreter at exit), so use the bus as a
+context manager.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from pathlib import Path
+from typing import Any, Callable
+
+from .. import messages
+from ..bus import BusConfig, Decoding
+from ..errors import ConfigError, LinkError
+
+__all__ = ["ZenohBus", "zenoh_config", "add_bus_args", "bus_config_from_args"]
+
+log = logging.getLogger(__name__)
+
+
+def zenoh_config(cfg: BusConfig):
+    """A :class:`BusConfig` as a ``zenoh.Config`` (file first, then the explicit fields over it)."""
+    import zenoh  # noqa: PLC0415
+
+    if cfg.config_file:
+        path = Path(cfg.config_file)
+        if not path.is_file():
+            raise ConfigError(str(path), "zenoh config", "file not found")
+        try:
+            conf = zenoh.Config.from_file(str(path))
+        except Exception as exc:  # zenoh raises ZError for any parse/validation problem
+            raise ConfigError(str(path), "zenoh config", str(exc)) from None
+    else:
+        conf = zenoh.Config()
+        conf.insert_json5("scouting/multicast/enabled", "false")
+    try:
+        if cfg.mode:
+            if cfg.mode not in ("peer", "client", "router"):
+                raise ConfigError("--mode", "mode", f"must be peer, client or router, got {cfg.mode!r}")
+            conf.insert_json5("mode", json.dumps(cfg.mode))
+        if cfg.connect:
+            conf.insert_json5("connect/endpoints", json.dumps(list(cfg.connect)))
+        if cfg.listen:
+            conf.insert_json5("listen/endpoints", json.dumps(list(cfg.listen)))
+        if cfg.shared_memory is not None:
+            conf.insert_json5("transport/shared_memory/enabled", json.dumps(cfg.shared_memory))
+    except ConfigError:
+        raise
+    except Exception as exc:
+        raise ConfigError(cfg.config_file or "<zenoh>", "endpoints", str(exc)) from None
+    return conf
+
+
+def add_bus_args(ap) -> None:
+    """The same zenoh flags on every command, as zenoh's own examples have them."""
+    g = ap.add_argument_group("zenoh")
+    g.add_argument("--zenoh-config", metavar="FILE", help="zenoh JSON5 config (see deploy/zenoh/)")
+    g.add_argument("--mode", choices=["peer", "client", "router"], help="zenoh session mode")
+    g.add_argument("--connect", "-e", action="append", default=[], metavar="ENDPOINT",
+                   help="endpoint to connect to, e.g. tcp/192.168.1.10:7447 (repeatable)")
+    g.add_argument("--listen", "-l", action="append", default=[], metavar="ENDPOINT",
+                   help="endpoint to listen on, e.g. tcp/0.0.0.0:7447 (repeatable)")
+
+
+def bus_config_from_args(args, base: BusConfig | None = None) -> BusConfig:
+    base = base or BusConfig()
+    return BusConfig(config_file=args.zenoh_config or base.config_file, mode=args.mode or base.mode,
+                     connect=tuple(args.connect) or base.connect, listen=tuple(args.listen) or base.listen,
+                     shared_memory=base.shared_memory)
+
+
+class ZenohBus(Decoding):
+    def __init__(self, session) -> None:
+        super().__init__()
+        import zenoh  # noqa: PLC0415
+
+        self._zenoh = zenoh
+        self.session = session
+        self._encoding = zenoh.Encoding(messages.ENCODING)
+        self._pubs: dict[str, Any] = {}
+        self._subs: list[Any] = []
+        self._tokens: list[Any] = []
+        self._closed = False
+
+    @classmethod
+    def open(cls, cfg: BusConfig) -> "ZenohBus":
+        import zenoh  # noqa: PLC0415
+
+        try:
+            return cls(zenoh.open(zenoh_config(cfg)))
+        except ConfigError:
+            raise
+        except Exception as exc:  # ZError: unable to connect, bad endpoint
+            raise LinkError("zenoh", str(exc)) from None
+
+    def __enter__(self) -> "ZenohBus":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def publish(self, key: str, msg: Any, *, express: bool = True) -> None:
+        raw = messages.encode(msg)
+        pub = self._pubs.get(key)
+        if pub is None:
+            pub = self.session.declare_publisher(
+                key, encoding=self._encoding, express=express,
+                congestion_control=self._zenoh.CongestionControl.BLOCK)
+            self._pubs[key] = pub
+        pub.put(raw)
+        self.published += 1
+
+    def put_raw(self, key: str, raw: bytes) -> None:
+        """Send arbitrary bytes (tests and fault injection only)."""
+        self.session.put(key, raw, encoding=self._encoding)
+
+    def subscribe(self, keyexpr: str, cls: type, handler: Callable[[str, Any], None]) -> None:
+        def on_sample(sample) -> None:
+            self._deliver(str(sample.key_expr), sample.payload.to_bytes(), cls, handler)
+
+        self._subs.append(self.session.declare_subscriber(keyexpr, on_sample))
+
+    def declare_alive(self, key: str) -> None:
+        self._tokens.append(self.session.liveliness().declare_token(key))
+
+    def watch_alive(self, keyexpr: str, handler: Callable[[str, bool], None]) -> None:
+        put = self._zenoh.SampleKind.PUT
+
+        def on_sample(sample) -> None:
+            try:
+                handler(str(sample.key_expr), sample.kind == put)
+            except Exception:
+                log.exception("liveliness handler for %s failed", sample.key_expr)
+
+        self._subs.append(self.session.liveliness().declare_subscriber(keyexpr, on_sample, history=True))
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        for s in self._subs:
+            try:
+                s.undeclare()
+            except Exception:  # already gone with the session
+                pass
+        for t in self._tokens:
+            try:
+                t.undeclare()
+            except Exception:
+                pass
+        self.session.close()
+
+
