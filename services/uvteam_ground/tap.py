@@ -4,7 +4,9 @@
     uvteam tap 'uvteam/demo/*/crowds' --connect ...           one topic of every vehicle
     uvteam tap --summary --team demo --connect ...            live table: vehicles, fix age, rates, rejected, crowds
 
-Payloads that do not decode are reported on stderr with their key, counted, and skipped.
+Camera frames (``.../frame``, megabytes each) are not pulled unless asked for with ``--frames`` or
+named in the key expression. Payloads that do not decode are reported on stderr with their key,
+counted, and skipped.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from uvteam.bus import BusConfig
 from uvteam.io.zenoh_bus import ZenohBus, add_bus_args
 from uvteam.errors import LinkError, MessageError
 from uvteam.service import StopFlag
+from uvteam.vocab import is_id
 
 
 def _typed(key: str):
@@ -35,9 +38,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--summary", action="store_true", help="a live table instead of JSON lines")
     ap.add_argument("--count", type=int, default=0, help="exit after this many messages (0 = run until Ctrl-C)")
     ap.add_argument("--duration", type=float, default=0.0, help="exit after this many seconds")
+    ap.add_argument("--frames", action="store_true", help="also pull camera frames (.../frame; large)")
     add_bus_args(ap)
     args = ap.parse_args(argv)
-    expr = args.keyexpr or keys.everything(args.team)
+    if args.team is not None and not is_id(args.team):
+        print(f"uvteam tap: --team must be an id (1-32 of A-Z a-z 0-9 _ -), got {args.team!r}", file=sys.stderr)
+        return 2
     stop = StopFlag()
     lock = threading.Lock()
     stats = {"n": 0, "bad": 0}
@@ -78,7 +84,12 @@ def main(argv: list[str] | None = None) -> int:
             if args.count and n >= args.count:
                 stop.set()
 
-        subs = [bus.session.declare_subscriber(expr, on_sample)]
+        if args.keyexpr:
+            exprs = [args.keyexpr]
+        else:   # every topic but frames (megabytes each), unless asked for: never pulled over the link
+            team = args.team or "*"
+            exprs = [f"{keys.ROOT}/{team}/*/{t}" for t in keys.TOPICS if t != "frame" or args.frames]
+        subs = [bus.session.declare_subscriber(e, on_sample) for e in exprs]
         bus._subs.extend(subs)
         bus.watch_alive(keys.alive_all(args.team) if args.team else "uvteam/*/*/alive",
                         lambda k, up: alive.__setitem__(keys.vehicle_of(k) or k, up))
@@ -102,9 +113,11 @@ def _draw(seen, alive, last_msg, stats, lock) -> None:
             # messages per second over the last 5 s, or since the key was first seen if that is sooner
             rate = sum(len([t for t in s["times"] if now - t < 5]) / max(min(5.0, now - s["first"]), 1.0)
                        for k, s in seen.items() if keys.vehicle_of(k) == v)
+            metrics = " ".join(f"{k}={x:g}" for k, x in sorted(st.metrics.items())) if st else ""
             rows.append(f"{v:<10} {'yes' if alive.get(v) else 'NO ':<5} "
                         f"{(f'{now - fix.stamp_s:5.2f}' if fix else '  -  '):>7} {rate:7.1f} "
-                        f"{(st.link if st else '-'):>5} {(st.rejected if st else 0):>8}  {(st.note if st else '')[:60]}")
+                        f"{(st.link if st else '-'):>5} {(st.rejected if st else 0):>8}  {st.note if st else ''}"
+                        + (f"\n{'':<10} {metrics}" if metrics else ""))
         crowds = [m for k, m in last_msg.items() if k.endswith("/crowds")]
         bad = stats["bad"]
     out = ["\x1b[2J\x1b[H" if sys.stdout.isatty() else "", f"uvteam tap --summary  {time.strftime('%H:%M:%S')}  "

@@ -22,7 +22,7 @@ import threading
 import time
 from typing import Callable
 
-from uvteam.autopilot import MissionItem, mavlink2
+from uvteam.autopilot import MissionItem, VehicleState, mavlink2
 from uvteam.io.mavlink import DatagramParser
 
 __all__ = ["SimAutopilot"]
@@ -103,6 +103,12 @@ class SimAutopilot:
         yaw = math.radians(heading_deg if heading_deg is not None else 0.0)
         self._send(mavlink2.MAVLink_attitude_message(tb, math.radians(roll_deg), math.radians(pitch_deg),
                                                      (yaw + math.pi) % (2 * math.pi) - math.pi, 0.0, 0.0, 0.0))
+
+    def send_state(self, st: VehicleState) -> None:
+        """A vehicle state as the autopilot streams it (capture time, position, heading, velocity, accuracy)."""
+        self.send_position(st.stamp_s, st.lat_deg, st.lon_deg, st.alt_amsl_m, st.alt_agl_m, st.heading_deg,
+                           st.v_east_m_s, st.v_north_m_s, st.h_acc_m if st.h_acc_m is not None else 5.0,
+                           st.roll_deg or 0.0, st.pitch_deg or 0.0)
 
     # --- loop --------------------------------------------------------------------------------------
     def _run(self) -> None:

@@ -1,230 +1,156 @@
 """`uvteam experiment`: run scenario files over their seeds in-process and score them.
 
-The same core code as the deployed services (planner, localizer step, crowd tracker) runs in
-simulated time against :class:`SimWorld`; only the bus and the MAVLink links are left out. Scoring
-follows ../shared/scenarios/README.md: per frame with a crowd present and reported, the ground
-distance between the reported position and the true centroid; reports matched to true crowds by
-Hungarian assignment with a 10 m gate; unmatched reports are false crowds, unmatched true crowds
-misses; mingling crowds scored as one.
+Each run is the deployed team's own code: the service classes (:mod:`uvteam.nodes`: UAV, localizer,
+one per UGV) with the configs an operator would write (:func:`uvteam.team.team_configs`: shipped
+defaults plus the team's ids and colors), over the in-memory bus, in simulated time. The simulator
+plays every autopilot (a :class:`uvteam.autopilot.MemoryAutopilot` per vehicle, fed by
+:class:`.simulation.Simulation`) and the UAV camera (rendered frames, or the sensor model's
+detections on the ``sensor`` key). Only the transports differ from the demo: no zenoh, no MAVLink.
+
+Scoring is :mod:`uvteam.scoring` on the ``truth`` and ``crowds`` messages, as in the demo. Each run's
+result is written as it finishes (``<out>/runs/``); ``--resume`` keeps those already there, so an
+interrupted experiment loses nothing; an output folder that cannot be written is an error (exit 2)
+before anything runs.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import multiprocessing
 import os
 import sys
 import time
-from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import asdict, replace
 from pathlib import Path
 
-import numpy as np
-from scipy.optimize import linear_sum_assignment
-
-from uvteam.camera import PinholeCamera
-from uvteam.crowds import GroupingConfig, GroupingState, report_crowds
-from uvteam.detector_noise import localizer_sigmas_px
-from uvteam.localizer import FrameObservation, LocalizerConfig, LocalizerState, UgvTrack, localize_step
-from uvteam.planning import plan_stations
+from uvteam import keys
+from uvteam.autopilot import MemoryAutopilot
+from uvteam.bus import InMemoryBus
+from uvteam.errors import ConfigError
 from uvteam.io.files import load_scenario
+from uvteam.messages import Crowds, Truth
+from uvteam.nodes.localizer import LocalizerNode
+from uvteam.nodes.uav import UavNode
+from uvteam.nodes.ugv import UgvNode
 from uvteam.scenario import Scenario
+from uvteam.scoring import BusScorer, Scoreboard, summarize
+from uvteam.team import TeamLayout, team_configs
 
-from .world import SimWorld
+from .simulation import Simulation
 
-__all__ = ["RunResult", "run_scenario_seed", "summarize", "main", "TEAM_DEFAULTS"]
+__all__ = ["RunResult", "SimTeam", "run_scenario_seed", "summarize", "main", "T0"]
 
-TRACKING_INTERVAL_S = 1.0
-CONFIRM_HITS = 3            # a crowd is published once its track has been seen this many times
-SCORE_GATE_M = 10.0
-CROWD_STALE_S = 5.0         # as the UGV service: an older crowd estimate is not planned around
 T0 = 1_700_000_000.0        # simulated UNIX epoch of every run's start
-TEAM_DEFAULTS = {"gate_px": 25.0}
+DETECTORS = {"sensor": "sim-sensor", "pixels": "pixels"}
+RunResult = Scoreboard
 
 
-@dataclass
-class RunResult:
-    scenario: str
-    seed: int
-    times_s: list = field(default_factory=list)     # per matched (frame, crowd)
-    errors_m: list = field(default_factory=list)
-    radius95_m: list = field(default_factory=list)
-    quality: list = field(default_factory=list)
-    truth_frames: int = 0                            # (frame, true crowd) pairs after the first second
-    detected_frames: int = 0
-    false_crowds: int = 0
-    ugv_as_crowd: int = 0
-    frames: int = 0
-    frame_log: list = field(default_factory=list)    # per frame: (t, true crowds, matched, reported)
-    false_log: list = field(default_factory=list)    # per false crowd: (t, east m, north m, distance to nearest UGV m)
+class SimClock:
+    """Simulated UNIX time, set by the run loop."""
+
+    def __init__(self, t_s: float) -> None:
+        self.t_s = t_s
+
+    def __call__(self) -> float:
+        return self.t_s
 
 
-def _ugv_ids(sc: Scenario) -> list[str]:
-    return [f"ugv{i + 1}" for i in range(sc.ugvs.count)]
+class SimTeam:
+    """The team's service nodes over one in-memory bus, driven tick by tick by a :class:`Simulation`.
 
+    Per tick, in this order (each node's own phases, :mod:`uvteam.nodes`): fixes delivered to the UGVs'
+    autopilots; lost UGVs' services stopped (liveliness dropped); every UGV publishes its fix, then
+    plans (once per tracking interval) and exchanges its mission; on a frame: the UAV's autopilot state
+    and fix, the frame (rendered pixels through the UAV node's vision, or the sensor model's detections
+    on the bus), the truth, and the localizer's step."""
 
-def detector_sigmas_px(sc: Scenario, detector: str, image_coordinates: str) -> tuple[float, float]:
-    """(landmark, target) 1-sigma pixel noise the localizer assumes for this detector in this scenario."""
-    f = PinholeCamera(sc.camera.width_px, sc.camera.height_px, sc.camera.hfov_deg).focal_px
-    return localizer_sigmas_px(detector, image_coordinates, sc.uav.altitude_agl_m, f)
+    def __init__(self, sc: Scenario, seed: int, detector: str = "sensor", team: str = "exp") -> None:
+        self.sc, self.seed, self.detector = sc, seed, detector
+        self.layout = TeamLayout.for_scenario(sc, team)
+        self.cfgs = team_configs(sc, self.layout, detector=DETECTORS[detector])
+        self.sim = Simulation(sc, seed, T0)
+        self.clock = SimClock(T0)
+        self.hub = InMemoryBus()
+        lay = self.layout
+        self.loc = LocalizerNode(self.cfgs[lay.localizer], self._bus(lay.localizer), self.clock)
+        self.uav_ap = MemoryAutopilot()
+        self.uav = UavNode(self.cfgs[lay.uav], self._bus(lay.uav), self.uav_ap, self.clock)
+        self.ugv_aps = [MemoryAutopilot(on_mission=lambda items, i=i: self.sim.set_mission(i, items))
+                        for i in range(len(lay.ugvs))]
+        self.ugvs: dict[str, UgvNode] = {u: UgvNode(self.cfgs[u], self._bus(u), self.ugv_aps[i], self.clock)
+                                         for i, u in enumerate(lay.ugvs)}
+        for node in [self.loc, self.uav, *self.ugvs.values()]:
+            node.start()
+        self.sim_bus = InMemoryBus(self.hub)
+        self.scorer = BusScorer(self.sim.world.frame, Scoreboard(sc.name, seed))
+        self.sim_bus.subscribe(keys.key(lay.team, "sim", "truth"), Truth, self.scorer.on_truth)
+        self.sim_bus.subscribe(keys.key(lay.team, lay.localizer, "crowds"), Crowds, self.scorer.on_crowds)
+        self.renderer = None
+        if detector == "pixels":
+            import numpy as np  # noqa: PLC0415
 
+            from .render import Renderer  # noqa: PLC0415
 
-def localizer_config(sc: Scenario, frame, image_coordinates: str | None = None, detector: str = "sensor") -> LocalizerConfig:
-    ic = image_coordinates or sc.landmarks.image_coordinates
-    s_lm, s_tg = detector_sigmas_px(sc, detector, ic)
-    return LocalizerConfig(
-        frame=frame, gate_px=TEAM_DEFAULTS["gate_px"], tracking_interval_s=TRACKING_INTERVAL_S,
-        image_coordinates=ic, sigma_landmark_px=s_lm, sigma_target_px=s_tg,
-        fix_extrapolate_s=max(0.3, 1.5 / sc.gnss.fix_rate_hz + sc.gnss.latency_s))
+            self.renderer = Renderer(self.sim.world, np.random.default_rng([seed, 0x5EE]))
 
+    def _bus(self, vehicle: str) -> InMemoryBus:
+        bus = InMemoryBus(self.hub)
+        bus.declare_alive(keys.alive(self.layout.team, vehicle))
+        return bus
 
-def run_scenario_seed(sc: Scenario, seed: int, *, detector=None, image_coordinates: str | None = None) -> RunResult:
-    """One seed of one scenario. ``detector(world, pose, stamp_s) -> SensorFrame`` (default: the
-    sensor model) lets the vision pipeline replace the sensor model."""
-    world = SimWorld(sc, seed)
-    cfg = localizer_config(sc, world.frame, image_coordinates, getattr(detector, "kind", "sensor"))
-    ids = _ugv_ids(sc)
-    color_to_id = dict(zip(sc.ugvs.colors, ids))
-    lost_at = {int(i): float(t) for i, t in sc.events.lose_ugv}
-    fixes = {u: deque(maxlen=64) for u in ids}
-    plans: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    pending: list[tuple[float, int, float, np.ndarray, float]] = []
-    state, grouping = LocalizerState(), GroupingState()
-    res = RunResult(sc.name, seed)
-    dt_frame = 1.0 / sc.run.frame_rate_hz
-    dt_fix = 1.0 / sc.gnss.fix_rate_hz
-    n_frames = int(round(sc.run.duration_s * sc.run.frame_rate_hz))
-    substeps = 4
-    next_fix = 0.0
-    next_plan = 0.0
-    crowd_est: tuple[np.ndarray, np.ndarray, float] | None = None
-    last_uav: tuple[np.ndarray, float] | None = None
-    fw, fh = world.camera.footprint_m(sc.uav.altitude_agl_m)
-    sense = detector or (lambda w, pose, stamp: w.sense(pose, stamp))
-    for f in range(n_frames + 1):
-        t = f * dt_frame
-        alive = [i for i in range(len(ids)) if t < lost_at.get(i, math.inf)]
-        # GNSS fixes (captured now, delivered latency_s later)
-        while next_fix <= t + 1e-9:
-            for i in alive:
-                if not world.in_dropout(i, next_fix):
-                    h_acc = math.sqrt(sc.gnss.sigma_m ** 2 + sc.gnss.bias_walk_m_per_sqrt_s ** 2 * min(next_fix, 60.0))
-                    pending.append((next_fix + sc.gnss.latency_s, i, next_fix,
-                                    (world.ugv_fix_en(i), world.ugv_fix_v(i)), h_acc))
-            next_fix += dt_fix
-        keep = []
-        for rel, i, cap, en, h_acc in pending:
-            if rel <= t + 1e-9:
-                fixes[ids[i]].append((T0 + cap, en[0], h_acc, en[1]))
-            else:
-                keep.append((rel, i, cap, en, h_acc))
-        pending = keep
-        # UGV planners, once per tracking interval, from what they know (fixes and published crowds)
-        if t >= next_plan - 1e-9:
-            known = {ids[i]: fixes[ids[i]][-1][1] for i in alive if fixes[ids[i]]}
-            if known:
-                # as the UGV service: the published crowd, else the point under the UAV (its fix)
-                uav_en = world.uav_p + world.wobble
-                uav_v = (uav_en - last_uav[0]) / max(t - last_uav[1], 1e-6) if last_uav is not None else np.zeros(2)
-                last_uav = (uav_en.copy(), t)
-                if crowd_est is not None and t - crowd_est[2] < CROWD_STALE_S:
-                    centre, vel = crowd_est[0] + crowd_est[1] * (t - crowd_est[2]), crowd_est[1]
-                else:
-                    centre, vel = uav_en, uav_v
-                sp = plan_stations(centre, vel, known, T0 + t, radius_m=sc.ugvs.station_radius_m,
-                                   view_half_m=(fw / 2, fh / 2), horizon_s=3 * TRACKING_INTERVAL_S,
-                                   step_s=TRACKING_INTERVAL_S, max_speed_m_s=sc.ugvs.approach_speed_m_s)
-                for u, p in sp.items():
-                    i = ids.index(u)
-                    world.set_mission(i, [(float(e), float(n), float(s)) for (e, n), s in zip(p.en_m, p.speed_m_s)])
-                    plans[u] = (p.stamp_s, p.en_m)
-            next_plan += TRACKING_INTERVAL_S
-        # the UAV frame
-        pose = world.camera_pose()
-        sf = sense(world, pose, T0 + t)
-        obs = FrameObservation(T0 + t, {color_to_id[c]: xy for c, xy in sf.landmarks.items()},
-                               sf.blob_xy_px, sf.blob_xyxy_px, tuple(color_to_id.get(c, "") for c in sf.blob_color),
-                               sf.blob_area_px)
-        tracks = {}
-        for u in ids:
-            if not fixes[u]:
+    def lose(self, i: int) -> None:
+        """UGV ``i``'s service stops for good: its subscriptions and liveliness go."""
+        u = self.layout.ugvs[i]
+        node = self.ugvs.pop(u, None)
+        if node is not None:
+            node.bus.close()
+            node.bus.drop_alive(keys.alive(self.layout.team, u))
+
+    def run(self, duration_s: float | None = None) -> Scoreboard:
+        lay, sim = self.layout, self.sim
+        truth_key = keys.key(lay.team, "sim", "truth")
+        sensor_key = keys.key(lay.team, lay.uav, "sensor")
+        for tick in sim.ticks(duration_s):
+            self.clock.t_s = T0 + tick.t_s
+            for i in tick.lost:
+                self.lose(i)
+            for f in tick.fixes:
+                self.ugv_aps[f.ugv_index].set_state(f.state)
+            for node in self.ugvs.values():
+                node.publish_fix()
+            for node in self.ugvs.values():
+                node.tick(self.clock.t_s)
+                node.exchange_mission()
+            if tick.frame_seq is None:
                 continue
-            st = np.array([x[0] for x in fixes[u]])
-            en = np.array([x[1] for x in fixes[u]])
-            sg = np.array([x[2] for x in fixes[u]])
-            vel = np.array([x[3] for x in fixes[u]])
-            ps, pe = plans.get(u, (np.empty(0), np.empty((0, 2))))
-            if ids.index(u) in lost_at and t >= lost_at[ids.index(u)]:
-                ps, pe = np.empty(0), np.empty((0, 2))  # its service is gone: no new plans either
-            tracks[u] = UgvTrack(st, en, sg, ps, pe, vel)
-        state, out = localize_step(state, obs, tracks, cfg)
-        grouping, confirmed = report_crowds(grouping, out.crowds, T0 + t, world.frame, GroupingConfig(confirm_hits=CONFIRM_HITS))
-        if confirmed:
-            best = confirmed[0]  # the longest-seen crowd, as the UGV service follows
-            crowd_est = (np.array([best[0].east_m, best[0].north_m]),
-                         np.array([best[1].v_east_m_s, best[1].v_north_m_s]), t)
-        # scoring
-        truth = world.truth_crowds()
-        res.frames += 1
-        rep = np.array([[c.east_m, c.north_m] for c, _ in confirmed]).reshape(-1, 2)
-        tru = np.array([c for c, _ in truth]).reshape(-1, 2)
-        matched_rep, matched_tru = set(), set()
-        if len(rep) and len(tru):
-            d = np.sqrt(((rep[:, None] - tru[None]) ** 2).sum(-1))
-            ri, ci = linear_sum_assignment(d)
-            for r_, c_ in zip(ri, ci):
-                if d[r_, c_] <= SCORE_GATE_M:
-                    matched_rep.add(r_)
-                    matched_tru.add(c_)
-                    res.times_s.append(t)
-                    res.errors_m.append(float(d[r_, c_]))
-                    res.radius95_m.append(confirmed[r_][0].radius95_m)
-                    res.quality.append(confirmed[r_][0].quality.value)
-        for r_ in range(len(rep)):
-            if r_ not in matched_rep:
-                res.false_crowds += 1
-                ugv_d = np.sqrt(((world.ugv_p - rep[r_]) ** 2).sum(1)).min()
-                if ugv_d < 2.0:
-                    res.ugv_as_crowd += 1
-                res.false_log.append((t, float(rep[r_, 0]), float(rep[r_, 1]), float(ugv_d)))
-        res.frame_log.append((t, len(tru), len(matched_tru), len(rep)))
-        if t >= 1.0:
-            res.truth_frames += len(tru)
-            res.detected_frames += len(matched_tru)
-        for _ in range(substeps):
-            world.step(dt_frame / substeps)
-    return res
+            pose = sim.world.camera_pose()
+            self.uav_ap.set_state(sim.uav_state(pose, tick.t_s))
+            self.uav.publish_fix()
+            if self.renderer is not None:
+                self.uav.process_frame(self.clock.t_s, tick.frame_seq, self.renderer.render(pose))
+            else:
+                self.sim_bus.publish(sensor_key, sim.sensor_detections(pose, tick.t_s, tick.frame_seq, lay.uav))
+            self.sim_bus.publish(truth_key, sim.truth(tick.t_s, tick.frame_seq, list(lay.ugvs)))
+            self.loc.step(0.0)
+        return self.scorer.finish()
 
 
-def summarize(results: list[RunResult]) -> dict:
-    e = np.concatenate([np.asarray(r.errors_m, float) for r in results]) if results else np.empty(0)
-    r95 = np.concatenate([np.asarray(r.radius95_m, float) for r in results]) if results else np.empty(0)
-    tf = sum(r.truth_frames for r in results)
-    return {
-        "n": int(len(e)),
-        "mean_m": float(e.mean()) if len(e) else math.nan,
-        "median_m": float(np.median(e)) if len(e) else math.nan,
-        "p95_m": float(np.percentile(e, 95)) if len(e) else math.nan,
-        "max_m": float(e.max()) if len(e) else math.nan,
-        "recall": sum(r.detected_frames for r in results) / tf if tf else math.nan,
-        "false_crowds": sum(r.false_crowds for r in results),
-        "ugv_as_crowd": sum(r.ugv_as_crowd for r in results),
-        "coverage95": float(np.mean(e <= r95)) if len(e) else math.nan,
-    }
+def run_scenario_seed(sc: Scenario, seed: int, *, detector: str = "sensor", image_coordinates: str | None = None,
+                      duration_s: float | None = None) -> Scoreboard:
+    """One seed of one scenario through the team's own code (``detector``: "sensor" or "pixels")."""
+    if image_coordinates is not None:
+        sc = replace(sc, landmarks=replace(sc.landmarks, image_coordinates=image_coordinates))
+    return SimTeam(sc, seed, detector).run(duration_s)
 
 
-def _run_job(job: tuple[str, int, str]) -> RunResult:
+def _run_job(job: tuple[str, int, str]) -> Scoreboard:
     path, seed, detector = job
     import cv2  # noqa: PLC0415
 
     cv2.setNumThreads(1)  # one core per run: the runs themselves are the parallelism
-    det = None
-    if detector == "pixels":
-        from .pixels import pixel_detector  # noqa: PLC0415
-
-        det = pixel_detector()
-    return run_scenario_seed(load_scenario(path), seed, detector=det)
+    return run_scenario_seed(load_scenario(path), seed, detector=detector)
 
 
 def _progress(done: int, total: int, label: str) -> None:
@@ -241,7 +167,8 @@ def _progress(done: int, total: int, label: str) -> None:
 
 
 def table_markdown(rows: list[tuple[Scenario, str, dict]]) -> str:
-    lines = ["| scenario | variant | frames scored | mean m | median m | p95 m | max m | paper mean m | recall | false crowds | UGV as crowd | in 95% radius |",
+    lines = ["| scenario | variant | frames scored | mean m | median m | p95 m | max m | paper mean m | recall | "
+             "false crowds | UGV as crowd | in 95% radius |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for sc, variant, s in rows:
         paper = "-" if math.isnan(sc.paper_mean_error_m) else f"{sc.paper_mean_error_m:.2f}"
@@ -251,40 +178,99 @@ def table_markdown(rows: list[tuple[Scenario, str, dict]]) -> str:
     return "\n".join(lines)
 
 
+def _run_path(out: Path, scenario: str, seed: int, detector: str) -> Path:
+    return out / "runs" / f"{scenario}__{detector}__seed{seed}.json"
+
+
+def _save_run(path: Path, board: Scoreboard) -> None:
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(asdict(board)))
+    os.replace(tmp, path)
+
+
+def _load_run(path: Path) -> Scoreboard | None:
+    try:
+        return Scoreboard(**json.loads(path.read_text()))
+    except (OSError, ValueError, TypeError):
+        return None
+
+
+def _writable(out: Path) -> str | None:
+    try:
+        (out / "runs").mkdir(parents=True, exist_ok=True)
+        probe = out / "runs" / ".write-test"
+        probe.write_text("x" * 4096)
+        probe.unlink()
+    except OSError as exc:
+        return f"{out}: cannot write results there: {exc.strerror or exc}"
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="uvteam experiment", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("scenarios", nargs="+", help="scenario TOML files, e.g. ../shared/scenarios/*.toml")
     ap.add_argument("--seeds", type=int, default=None, help="use only the first N seeds of each scenario")
-    ap.add_argument("--detector", choices=["sensor", "pixels"], default="sensor",
-                    help="sensor: the simulator's sensor model; pixels: rendered frames through the vision pipeline")
-    ap.add_argument("--out", default="out/experiment", help="folder for the Markdown table and PNG plots")
+    ap.add_argument("--seed", type=int, action="append", default=None, metavar="N",
+                    help="use these seeds instead of the scenario's (repeatable): score on seeds not tuned on")
+    ap.add_argument("--detector", choices=sorted(DETECTORS), default="sensor",
+                    help="sensor: the simulator's sensor model; pixels: rendered frames through the UAV's vision")
+    ap.add_argument("--out", default="out/experiment", help="folder for the Markdown table, PNG plots and per-run results")
+    ap.add_argument("--resume", action="store_true", help="keep the per-run results already in --out")
     ap.add_argument("--jobs", type=int, default=max(1, (os.cpu_count() or 1)),
                     help="runs in parallel, one process each (default: one per core)")
     args = ap.parse_args(argv)
-    scenarios = [load_scenario(p) for p in args.scenarios]
-    per: dict[str, list[RunResult]] = {}
+    try:
+        scenarios = [load_scenario(p) for p in args.scenarios]
+    except ConfigError as exc:
+        print(f"uvteam experiment: {exc}", file=sys.stderr)
+        return 2
+    out = Path(args.out)
+    why = _writable(out)
+    if why:
+        print(f"uvteam experiment: {why}", file=sys.stderr)
+        return 2
+    per: dict[str, list[Scoreboard]] = {}
     t0 = time.perf_counter()
-    work = [(str(p), seed, args.detector) for p, sc in zip(args.scenarios, scenarios)
-            for seed in (sc.run.seeds[: args.seeds] if args.seeds else sc.run.seeds)]
+    work = []
+    for p, sc in zip(args.scenarios, scenarios):
+        seeds = args.seed or (sc.run.seeds[: args.seeds] if args.seeds else sc.run.seeds)
+        for seed in seeds:
+            done = _load_run(_run_path(out, sc.name, seed, args.detector)) if args.resume else None
+            if done is not None:
+                per.setdefault(sc.name, []).append(done)
+            else:
+                work.append((str(p), seed, args.detector))
     _progress(0, len(work), "")
-    if args.jobs > 1:
-        with multiprocessing.get_context("spawn").Pool(args.jobs) as pool:
-            for k, res in enumerate(pool.imap_unordered(_run_job, work), start=1):
-                per.setdefault(res.scenario, []).append(res)
-                _progress(k, len(work), f"{res.scenario} seed {res.seed}")
-    else:
-        for k, job in enumerate(work, start=1):
-            res = _run_job(job)
-            per.setdefault(res.scenario, []).append(res)
-            _progress(k, len(work), f"{res.scenario} seed {res.seed}")
+
+    def finished(k: int, res: Scoreboard) -> None:
+        _save_run(_run_path(out, res.scenario, res.seed, args.detector), res)
+        per.setdefault(res.scenario, []).append(res)
+        _progress(k, len(work), f"{res.scenario} seed {res.seed}")
+
+    try:
+        if args.jobs > 1 and len(work) > 1:
+            with multiprocessing.get_context("spawn").Pool(args.jobs) as pool:
+                for k, res in enumerate(pool.imap_unordered(_run_job, work), start=1):
+                    finished(k, res)
+        else:
+            for k, job in enumerate(work, start=1):
+                finished(k, _run_job(job))
+    except OSError as exc:
+        print(f"uvteam experiment: writing a run's result failed: {exc}; the runs written so far are in "
+              f"{out / 'runs'} (--resume keeps them)", file=sys.stderr)
+        return 2
     for v in per.values():
         v.sort(key=lambda r: r.seed)
-    rows = [(sc, f"{args.detector}, {sc.landmarks.image_coordinates} landmarks", summarize(per[sc.name])) for sc in scenarios]
+    rows = [(sc, f"{args.detector}, {sc.landmarks.image_coordinates} landmarks", summarize(per.get(sc.name, [])))
+            for sc in scenarios]
     md = table_markdown(rows)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "results.md").write_text(md + "\n")
+    try:
+        (out / "results.md").write_text(md + "\n")
+    except OSError as exc:
+        print(md)
+        print(f"uvteam experiment: cannot write {out / 'results.md'}: {exc}", file=sys.stderr)
+        return 2
     print(md)
     print(f"\n{len(work)} runs in {time.perf_counter() - t0:.1f} s; table in {out / 'results.md'}")
     from .plots import write_plots  # noqa: PLC0415

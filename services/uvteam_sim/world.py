@@ -29,7 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from uvteam.camera import CameraPose, PinholeCamera, project
-from uvteam.detector_noise import SENSOR_MODEL_SIGMA_PX
+from uvteam.blobs import Blobs, Landmarks
+from uvteam.detector_noise import SENSOR_MODEL_NOISE
 from uvteam.geo import LocalFrame
 from uvteam.scenario import Scenario
 
@@ -50,13 +51,12 @@ GNSS_VEL_SIGMA_M_S = 0.05
 
 @dataclass(frozen=True)
 class SensorFrame:
+    """What the sensor model reports for a frame, labelled by roof color, as the vision pipeline would."""
+
     stamp_s: float
-    landmarks: dict[str, tuple[float, float]]    # color -> px
-    blob_xy_px: np.ndarray
-    blob_xyxy_px: np.ndarray
+    landmarks: Landmarks                         # by roof color
+    blobs: Blobs                                 # ``ugv``: the roof color seen in a blob, or ""
     blob_kind: tuple[str, ...]                   # "ugv:<color>" | "crowd:<k>" | "false" (truth, for diagnostics)
-    blob_color: tuple[str, ...] = ()            # per blob: the roof color the detector saw in it, or ""
-    blob_area_px: np.ndarray | None = None       # per blob: moving pixels (the pixel pipeline); None: unknown
 
 
 class SimWorld:
@@ -219,9 +219,9 @@ class SimWorld:
             if not self._in_image(lm_px[i]):
                 continue
             if rng.random() >= MISS_PROB:
-                landmarks[color] = tuple(lm_px[i] + rng.normal(0, SENSOR_MODEL_SIGMA_PX["color"], 2))
+                landmarks[color] = tuple(lm_px[i] + rng.normal(0, SENSOR_MODEL_NOISE.color_px, 2))
             if self.ugv_speed[i] > MOVING_M_S and rng.random() >= MISS_PROB:
-                c = lm_px[i] + rng.normal(0, SENSOR_MODEL_SIGMA_PX["ugv_blob"], 2)
+                c = lm_px[i] + rng.normal(0, SENSOR_MODEL_NOISE.ugv_blob_px, 2)
                 xy.append(c)
                 boxes.append([c[0] - half, c[1] - half, c[0] + half, c[1] + half])
                 kinds.append(f"ugv:{color}")
@@ -232,7 +232,7 @@ class SimWorld:
             if vis.sum() < max(2, 0.5 * len(px)) or rng.random() < MISS_PROB:
                 continue
             p = px[vis]
-            c = p.mean(0) + rng.normal(0, SENSOR_MODEL_SIGMA_PX["crowd_blob"], 2)
+            c = p.mean(0) + rng.normal(0, SENSOR_MODEL_NOISE.crowd_blob_px, 2)
             xy.append(c)
             boxes.append([p[:, 0].min() - r_px, p[:, 1].min() - r_px, p[:, 0].max() + r_px, p[:, 1].max() + r_px])
             kinds.append(f"crowd:{k}")
@@ -244,5 +244,5 @@ class SimWorld:
             boxes.append([c[0] - s, c[1] - s, c[0] + s, c[1] + s])
             kinds.append("false")
             colors.append("")
-        return SensorFrame(stamp_s, landmarks, np.array(xy, float).reshape(-1, 2),
-                           np.array(boxes, float).reshape(-1, 4), tuple(kinds), tuple(colors))
+        blobs = Blobs(np.array(xy, float).reshape(-1, 2), np.array(boxes, float).reshape(-1, 4), np.ones(len(xy)), tuple(colors))
+        return SensorFrame(stamp_s, Landmarks.from_dict(landmarks), blobs, tuple(kinds))

@@ -39,14 +39,18 @@ class VehicleState:
     roll_deg: float | None = None
     pitch_deg: float | None = None
     yaw_deg: float | None = None
+    fix_type: int | None = None    # GPS_RAW_INT.fix_type (3 = 3D); None when not sent
 
 
 def fix_from_state(vehicle: str, st: VehicleState, unknown_h_acc_m: float = 5.0):
-    """The bus message for an autopilot state (heading unknown -> 0; accuracy unknown -> a cautious value)."""
+    """The bus message for an autopilot state. An unknown heading stays unknown (None, never north);
+    an unknown accuracy becomes a cautious ``unknown_h_acc_m``."""
     from .messages import Fix  # noqa: PLC0415
 
-    return Fix(vehicle, st.stamp_s, st.lat_deg, st.lon_deg, st.alt_amsl_m, (st.heading_deg or 0.0) % 360.0,
-               st.h_acc_m if st.h_acc_m is not None else unknown_h_acc_m, st.v_east_m_s, st.v_north_m_s)
+    return Fix(vehicle, st.stamp_s, st.lat_deg, st.lon_deg, st.alt_amsl_m,
+               None if st.heading_deg is None else st.heading_deg % 360.0,
+               st.h_acc_m if st.h_acc_m is not None else unknown_h_acc_m, st.v_east_m_s, st.v_north_m_s,
+               getattr(st, "fix_type", None))
 
 
 @dataclass(frozen=True, slots=True)

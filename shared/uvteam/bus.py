@@ -24,7 +24,7 @@ from typing import Any, Callable, Protocol
 from . import messages
 from .errors import MessageError
 
-__all__ = ["BusConfig", "Bus", "Decoding", "InMemoryBus", "keyexpr_matches"]
+__all__ = ["BusConfig", "Bus", "Decoding", "InMemoryBus", "RateLimitedLog", "keyexpr_matches"]
 
 log = logging.getLogger(__name__)
 
@@ -39,28 +39,33 @@ class BusConfig:
 
 
 class Bus(Protocol):
-    rejected: Counter
+    rejected: Counter                 # per key: messages dropped (bad, or refused by a handler)
     published: int
+    received: int
+    rejected_total: int
 
     def publish(self, key: str, msg: Any) -> None: ...
     def subscribe(self, keyexpr: str, cls: type, handler: Callable[[str, Any], None]) -> None: ...
     def declare_alive(self, key: str) -> None: ...
     def watch_alive(self, keyexpr: str, handler: Callable[[str, bool], None]) -> None: ...
+    def reject(self, key: str, why: str) -> None: ...
     def close(self) -> None: ...
 
 
-class _RateLimitedLog:
-    def __init__(self, period_s: float = 5.0) -> None:
-        self.period_s, self._last = period_s, {}
+class RateLimitedLog:
+    """A warning at most once per ``period_s`` per reason (loops and handlers must not flood the log)."""
+
+    def __init__(self, logger: logging.Logger = log, period_s: float = 5.0) -> None:
+        self.log, self.period_s, self._last = logger, period_s, {}
         self._lock = threading.Lock()
 
-    def warn(self, key: str, fmt: str, *args) -> None:
+    def warn(self, reason: str, fmt: str, *args) -> None:
         now = time.monotonic()
         with self._lock:
-            if now - self._last.get(key, -1e9) < self.period_s:
+            if now - self._last.get(reason, -1e9) < self.period_s:
                 return
-            self._last[key] = now
-        log.warning(fmt, *args)
+            self._last[reason] = now
+        self.log.warning(fmt, *args)
 
 
 class Decoding:
@@ -70,16 +75,14 @@ class Decoding:
         self.rejected: Counter = Counter()
         self.published = 0
         self.received = 0
-        self._warn = _RateLimitedLog()
+        self._warn = RateLimitedLog()
         self._lock = threading.Lock()
 
     def _deliver(self, key: str, raw: bytes, cls: type, handler: Callable[[str, Any], None]) -> None:
         try:
             msg = messages.decode(cls, raw)
         except MessageError as exc:
-            with self._lock:
-                self.rejected[key] += 1
-            self._warn.warn(key, "dropped a bad message on %s: %s", key, exc)
+            self.reject(key, str(exc))
             return
         with self._lock:
             self.received += 1
@@ -87,6 +90,13 @@ class Decoding:
             handler(key, msg)
         except Exception:  # a handler bug must not kill zenoh's thread; it is logged in full
             log.exception("handler for %s failed", key)
+
+    def reject(self, key: str, why: str) -> None:
+        """Count and log (rate-limited) a message dropped on ``key``: undecodable here, or refused by
+        its handler (a sender that is not who the key says, an implausible fix, ...)."""
+        with self._lock:
+            self.rejected[key] += 1
+        self._warn.warn(key, "dropped a message on %s: %s", key, why)
 
     @property
     def rejected_total(self) -> int:

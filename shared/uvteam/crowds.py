@@ -37,11 +37,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .geo import LocalFrame
 from .localizer import CrowdEstimate
 from .tracking import CrowdTrack, CrowdTracker
 
-__all__ = ["GroupingConfig", "GroupingState", "crowd_groups", "report_crowds"]
+__all__ = ["GroupingConfig", "GroupingState", "Held", "ReportedCrowd", "crowd_groups", "report_crowds"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -69,7 +68,15 @@ class GroupingConfig:
 
 HOLD_MARGIN_M = 2.0        # a predicted centre this far outside a footprint is still in it (track velocities are rough)
 Pair = tuple[int, int]   # two track ids, the smaller first
-Held = tuple[float, Pair, tuple[int, ...]]  # a crowd a blob took in: when, the pair known apart, the tracks it lost
+
+
+@dataclass(frozen=True, slots=True, order=True)
+class Held:
+    """A crowd a blob took in (step 4)."""
+
+    since_s: float                 # when the blob took it in
+    pair: Pair                     # the two tracks known apart that became one blob
+    lost: tuple[int, ...]          # the tracks the blob took in (unseen since)
 
 
 @dataclass(frozen=True, slots=True)
@@ -142,33 +149,34 @@ def _rel_speed_m_s(a: dict, b: dict, stamp_s: float, cfg: GroupingConfig) -> flo
     return float(abs(slope)) if abs(slope) > cfg.significance * stderr else 0.0
 
 
-def _merge(frame: LocalFrame, parts: list[CrowdEstimate]) -> CrowdEstimate:
+def _merge(parts: list[CrowdEstimate]) -> CrowdEstimate:
     if len(parts) == 1:
         return parts[0]
     w = np.array([max(p.area_px, 1e-9) for p in parts])
     w = w / w.sum()
     east = float(np.dot(w, [p.east_m for p in parts]))
     north = float(np.dot(w, [p.north_m for p in parts]))
-    lat, lon = frame.ground_to_wgs84(np.array([east]), np.array([north]))
-    corners = np.vstack([p.footprint_latlon_deg for p in parts])
-    (la0, lo0), (la1, lo1) = corners.min(0), corners.max(0)
+    corners = np.vstack([p.footprint_en_m for p in parts])
+    (e0, n0), (e1, n1) = corners.min(0), corners.max(0)
     biggest = max(parts, key=lambda p: p.area_px)
-    return replace(biggest, east_m=east, north_m=north, lat_deg=float(lat[0]), lon_deg=float(lon[0]),
-                   footprint_latlon_deg=np.array([[la1, lo0], [la1, lo1], [la0, lo1], [la0, lo0]]),
+    return replace(biggest, east_m=east, north_m=north, footprint_en_m=np.array([[e0, n1], [e1, n1], [e1, n0], [e0, n0]]),
                    radius95_m=max(p.radius95_m for p in parts), area_px=float(sum(p.area_px for p in parts)))
 
 
-def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], stamp_s: float, frame: LocalFrame,
-                  cfg: GroupingConfig = GroupingConfig()) -> tuple[GroupingState, list[tuple[CrowdEstimate, CrowdTrack]]]:
+@dataclass(frozen=True, slots=True)
+class ReportedCrowd:
+    """A crowd the team is told about: its (joined) estimate and the track it is reported under."""
+
+    estimate: CrowdEstimate
+    track: CrowdTrack
+
+
+def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], stamp_s: float,
+                  cfg: GroupingConfig = GroupingConfig()) -> tuple[GroupingState, list[ReportedCrowd]]:
     """Track this frame's estimates, join the parts of each crowd; the confirmed crowds, longest-seen first."""
     en = np.array([[c.east_m, c.north_m] for c in estimates]).reshape(-1, 2)
     tracker, trk = state.tracker.update(en, stamp_s)
-    boxes = []
-    for c in estimates:
-        fp = c.footprint_latlon_deg
-        e, n = frame.wgs84_to_ground(fp[:, 0], fp[:, 1])
-        boxes.append([e.min(), n.min(), e.max(), n.max()])
-    boxes_all = np.array(boxes, float).reshape(-1, 4)
+    boxes_all = np.array([[*c.footprint_en_m.min(0), *c.footprint_en_m.max(0)] for c in estimates], float).reshape(-1, 4)
     live = {t.track_id: t for t in tracker.tracks}
     holds = _merged(state, live, trk, boxes_all, stamp_s)
     confirmed = [k for k in range(len(trk)) if trk[k].hits >= cfg.confirm_hits]  # a one-frame blob joins nothing
@@ -177,7 +185,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
         at = live[x].predicted(stamp_s)
         # the blob's own track if seen, and parts first seen since the merge beside where it is
         out_of = [trk[k].track_id for k in confirmed if trk[k].track_id == x or (
-            trk[k].first_s > since[0][0] and np.hypot(trk[k].east_m - at[0], trk[k].north_m - at[1]) < cfg.near_m)]
+            trk[k].first_s > since[0].since_s and np.hypot(trk[k].east_m - at[0], trk[k].north_m - at[1]) < cfg.near_m)]
         for y in out_of[1:]:
             pair = (min(out_of[0], y), max(out_of[0], y))
             if pair not in apart and since:
@@ -193,8 +201,8 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     out = []
     for members in groups.values():
         lead = min(members, key=lambda k: (-trk[k].hits, trk[k].track_id))
-        out.append((_merge(frame, [estimates[k] for k in members]), trk[lead]))
-    out.sort(key=lambda ct: (-ct[1].hits, ct[1].track_id))
+        out.append(ReportedCrowd(_merge([estimates[k] for k in members]), trk[lead]))
+    out.sort(key=lambda c: (-c.track.hits, c.track.track_id))
     apart = frozenset(p for p in apart if p[0] in live and p[1] in live)   # forgotten with either track
     return GroupingState(tracker, apart, streak, {x: v for x, v in holds.items() if v and x in live}), out
 
@@ -210,7 +218,7 @@ def _merged(state: GroupingState, live: Mapping[int, CrowdTrack], trk: list[Crow
     took it from is seen again (the blob was one only for a frame or two)."""
     prev = {t.track_id: t for t in state.tracker.tracks}
     seen = {t.track_id for t in trk}
-    holds = {x: tuple(h for h in v if not seen & set(h[2])) for x, v in state.holds.items() if x in live}
+    holds = {x: tuple(h for h in v if not seen & set(h.lost)) for x, v in state.holds.items() if x in live}
     holds = {x: v for x, v in holds.items() if v}
 
     def holding(ids: tuple[int, ...]) -> np.ndarray:
@@ -220,11 +228,11 @@ def _merged(state: GroupingState, live: Mapping[int, CrowdTrack], trk: list[Crow
                                & (p[None] <= boxes_en[:, None, 2:] + HOLD_MARGIN_M)).all((1, 2)))
 
     for x in [x for x in holds if live[x].misses >= 1]:   # another track took the blob on (its centre jumped)
-        lost = {y for h in holds[x] for y in h[2]}
+        lost = {y for h in holds[x] for y in h.lost}
         took = [k for k in holding((x,)) if trk[k].track_id not in lost and trk[k].track_id not in holds]
         if len(took) == 1:
             holds[trk[took[0]].track_id] = holds.pop(x)
-    known = {h[1] for v in holds.values() for h in v}
+    known = {h.pair for v in holds.values() for h in v}
     for a, b in sorted(state.apart):
         if (a, b) in known or any(y not in live for y in (a, b)):
             continue
@@ -237,7 +245,7 @@ def _merged(state: GroupingState, live: Mapping[int, CrowdTrack], trk: list[Crow
             taken = tuple(s for y in gone if y != x for s in holds.pop(y, ()))
             lost = tuple(y for y in gone if y != x)
             hidden = len(gone) - (x not in (a, b))    # crowds in the blob, less the one seen as it
-            held = tuple(sorted(holds.get(x, ()) + taken + ((stamp_s, (a, b), lost),) * hidden))
+            held = tuple(sorted(holds.get(x, ()) + taken + (Held(stamp_s, (a, b), lost),) * hidden))
             if held:
                 holds[x] = held
     return holds

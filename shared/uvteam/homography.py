@@ -26,18 +26,12 @@ from math import erf, sqrt
 
 import numpy as np
 
+from .vocab import FitQuality
+
 __all__ = [
     "FitQuality", "FailureReason", "FitFailure", "Homography", "fit_homography",
     "fit_homography_robust", "radius95_m",
 ]
-
-
-class FitQuality(str, enum.Enum):
-    EXACT = "exact"                  # n = 4, the system is square
-    LEAST_SQUARES = "least_squares"  # n > 4, all landmarks used
-    ROBUST = "robust"                # n >= 5, outlier landmarks named and left out
-    HELD = "held"                    # too few landmarks this frame: an earlier transform reused
-    FAILED = "failed"                # no usable transform
 
 
 class FailureReason(str, enum.Enum):

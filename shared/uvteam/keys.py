@@ -8,19 +8,17 @@ Team and vehicle ids are 1-32 characters of [A-Za-z0-9_-], so no id can inject k
 
 from __future__ import annotations
 
-import re
-
 from .errors import ConfigError
+from .vocab import is_id
 
-__all__ = ["TOPICS", "check_id", "key", "all_vehicles", "alive", "alive_all", "vehicle_of", "topic_of"]
+__all__ = ["TOPICS", "ROOT", "check_id", "key", "all_vehicles", "alive", "alive_all", "vehicle_of", "topic_of"]
 
 TOPICS = ("fix", "plan", "detections", "people", "crowds", "status", "truth", "sensor", "frame")
 ROOT = "uvteam"
-_ID = re.compile(r"^[A-Za-z0-9_-]{1,32}$")
 
 
 def check_id(kind: str, value: str) -> str:
-    if not isinstance(value, str) or not _ID.match(value):
+    if not is_id(value):
         raise ConfigError("<ids>", kind, f"must be 1-32 characters of A-Z a-z 0-9 _ -, got {value!r}")
     return value
 

@@ -1,37 +1,50 @@
-"""The localizer step: UAV detections + UGV fixes/plans -> geolocated crowds. Pure: no I/O, no clock.
+"""The localizer step: UAV detections + UGV fixes/plans -> crowds on the ground. Pure: no I/O, no clock.
 
-Per frame (:func:`localize_step`):
+Everything here is in the localizer's east-north frame (metres); WGS84 is the message boundary's
+business (:mod:`uvteam.nodes.localizer`). Per frame, :func:`localize_step` runs five phases:
 
-1. Each UGV's ground position at the frame's capture time: interpolated between its fixes; a short
-   extrapolation past the newest fix (fix latency); when fixes are late or missing, its planned
-   waypoints for at most one tracking interval after the newest fix (the paper's rule); else unusable.
-2. Landmark <-> blob assignment: a blob in which the detector saw a UGV's roof label is that UGV's;
-   the rest solved afresh at the start of each tracking interval from the color
-   centres; inside the interval the pairing is kept by continuity (each UGV's previous motion-blob
-   centre predicts where its blob is now), so a UGV whose color flickers keeps its blob.
-   Every blob within the gate of a landmark is a UGV, never a crowd, unless the detector labelled
-   another blob as that UGV's (it carved the UGV out of a crowd it drove into: what is left beside
-   it is crowd); so is a blob whose box holds, or whose centre is near, the projected position of a
-   UGV that was seen neither by color nor by an assigned blob in this frame.
-3. The transform from >= 4 usable landmarks: exact (4), least squares (> 4), robust with named
-   outliers (>= 5). With fewer, the last good transform is held for ``hold_max_s`` and flagged HELD.
-4. Every remaining blob mapped to lat/lon (centre and box footprint) with a 95 % radius from the fit's
-   propagated pixel and GNSS noise, and the fit's quality flag. No estimate leaves without its flag.
+1. :func:`ugv_positions` -- each UGV's ground position at the frame's capture time: interpolated
+   between its fixes; a short extrapolation past the newest fix (fix latency: up to 1.5 fix intervals
+   plus the latency the track has measured, at least ``fix_extrapolate_s``); when fixes are late or
+   missing, its planned waypoints for at most one tracking interval after the newest fix (the paper's
+   rule); else unusable.
+2. :func:`pair_landmarks` -- landmark <-> blob assignment: a blob in which the detector saw a UGV's
+   roof label is that UGV's; the rest solved afresh at the start of each tracking interval from the
+   label centres; inside the interval the pairing is kept by continuity (each UGV's previous
+   motion-blob centre predicts where its blob is now), so a UGV whose label flickers keeps its blob.
+   Every blob within the gate of a label is a UGV, never a crowd, unless the detector labelled another
+   blob as that UGV's (it carved the UGV out of a crowd it drove into: what is left beside it is crowd).
+3. :func:`landmark_pixels` -- each landmark's image point: its motion blob's centre or its label's
+   (``image_coordinates``), the other when the first is missing.
+4. :func:`fit_transform` -- the transform from >= 4 usable landmarks: exact (4), least squares (> 4),
+   robust with named outliers (>= 5). With fewer, the last good transform is held for ``hold_max_s``
+   and flagged HELD.
+5. :func:`claim_unseen` and :func:`map_targets` -- a UGV seen neither by label nor by an assigned blob
+   claims the blob whose box holds, or whose centre is near, its projected position; every remaining
+   blob is mapped to the ground (centre and box footprint) with a 95 % radius from the fit's propagated
+   pixel and GNSS noise, and the fit's quality flag. No estimate leaves without its flag.
+
+The pixel noise the radius propagates is what the detector declares with its detections
+(:class:`FrameObservation` ``sigma_*``), unless the config overrides it.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from .assignment import assign_greedy, assign_optimal
+from .blobs import Blobs, Landmarks
 from .geo import LocalFrame
-from .homography import FitFailure, FitQuality, Homography, fit_homography_robust, radius95_m
+from .homography import FitFailure, Homography, fit_homography_robust, radius95_m
+from .vocab import IMAGE_COORDINATES, SOLVERS, FitQuality, check_choice
 
 __all__ = [
-    "UgvTrack", "FrameObservation", "LocalizerConfig", "LocalizerState", "CrowdEstimate",
-    "StepResult", "ugv_position_at", "localize_step",
+    "UgvTrack", "FrameObservation", "LocalizerConfig", "LocalizerState", "CrowdEstimate", "StepResult",
+    "UgvPosition", "Pairing", "FitOutcome", "ugv_position_at", "ugv_positions", "pair_landmarks",
+    "landmark_pixels", "fit_transform", "claim_unseen", "map_targets", "localize_step", "ugv_track",
 ]
 
 
@@ -45,6 +58,7 @@ class UgvTrack:
     plan_stamp_s: np.ndarray = field(default_factory=lambda: np.empty(0))   # (w,) planned times
     plan_en_m: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))  # (w, 2)
     fix_v_en_m_s: np.ndarray | None = None  # (k, 2) reported (Doppler) velocity, when the receiver gives it
+    fix_latency_s: float = 0.0     # how late fixes arrive after their capture time (median, measured)
 
     @staticmethod
     def from_wgs84(frame: LocalFrame, fix_stamp_s, fix_lat_deg, fix_lon_deg, fix_sigma_m,
@@ -56,49 +70,81 @@ class UgvTrack:
                         np.stack([pe, pn], -1).reshape(-1, 2))
 
 
+def ugv_track(frame: LocalFrame, fixes: Sequence, plan=None, latency_s: float = 0.0) -> UgvTrack:
+    """A UGV's track from its fixes (:class:`uvteam.messages.Fix`, oldest first) and its newest plan
+    (:class:`uvteam.messages.Plan` or None). The plan starts where the UGV was when it was made: its
+    position interpolated in the fixes at the plan's stamp (the newest fix when the plan is newer)."""
+    st = np.array([f.stamp_s for f in fixes], float)
+    e, n = frame.wgs84_to_ground(np.array([f.lat_deg for f in fixes], float), np.array([f.lon_deg for f in fixes], float))
+    en = np.column_stack([e, n]).reshape(-1, 2)
+    sg = np.array([f.h_acc_m for f in fixes], float)
+    known_v = all(f.v_east_m_s is not None for f in fixes)
+    vel = np.array([[f.v_east_m_s, f.v_north_m_s] for f in fixes], float).reshape(-1, 2) if known_v else None
+    if plan is not None and plan.waypoints and len(st):
+        ps = np.array([w.stamp_s for w in plan.waypoints], float)
+        pe, pn = frame.wgs84_to_ground(np.array([w.lat_deg for w in plan.waypoints], float),
+                                       np.array([w.lon_deg for w in plan.waypoints], float))
+        start = _interp_path(st, en, plan.stamp_s)
+        ps, pen = np.concatenate([[plan.stamp_s], ps]), np.vstack([start, np.column_stack([pe, pn])])
+    else:
+        ps, pen = np.empty(0), np.empty((0, 2))
+    return UgvTrack(st, en, sg, ps, pen, vel, float(latency_s))
+
+
 @dataclass(frozen=True, slots=True)
 class FrameObservation:
-    """One UAV frame's detections."""
+    """One UAV frame's detections, with the 1-sigma pixel noise the detector declares for them."""
 
     stamp_s: float                          # capture time
-    landmarks_px: dict[str, tuple[float, float]]  # UGV id -> color-blob centre
-    blob_xy_px: np.ndarray                  # (N, 2) motion-blob centres
-    blob_xyxy_px: np.ndarray                # (N, 4) motion-blob boxes
-    blob_ugv: tuple[str, ...] = ()          # per blob: the UGV whose roof label the detector saw in it, or ""
-    blob_area_px: np.ndarray | None = None  # (N,) moving pixels per blob (weights parts of one crowd); None: 1 each
+    landmarks: Landmarks                    # UGV id -> roof-label centre
+    blobs: Blobs                            # motion blobs; ``ugv``: the UGV whose label the detector saw in it
+    sigma_color_px: float = 0.5
+    sigma_ugv_blob_px: float = 1.0
+    sigma_crowd_blob_px: float = 1.5
 
 
 @dataclass(frozen=True, slots=True)
 class LocalizerConfig:
-    frame: LocalFrame
     gate_px: float = 25.0                   # the paper's epsilon
     tracking_interval_s: float = 1.0
     image_coordinates: str = "motion"       # "motion" | "color": which centre a landmark uses
     solver: str = "optimal"                 # "optimal" | "greedy"
-    fix_extrapolate_s: float = 0.3          # extrapolate past the newest fix at most this long
+    fix_extrapolate_s: float = 0.3          # extrapolate past the newest fix at least this long
     plan_hold_s: float | None = None        # use the plan at most this long after the newest fix
     plan_sigma_m: float = 1.0               # 1-sigma of a planned position (how well UGVs follow plans)
     hold_max_s: float = 1.0                 # hold the last transform at most this long
     held_growth_m_s: float = 2.0            # 95 % radius growth per second of hold (camera drift)
     robust_threshold_m: float = 3.0
-    sigma_landmark_px: float = 1.0
-    sigma_target_px: float = 2.0
+    sigma_landmark_px: float | None = None  # None: what the detector declares (label or UGV blob, by image_coordinates)
+    sigma_target_px: float | None = None    # None: what the detector declares for a crowd's blob
     min_sigma_m: float = 0.02               # floor on a fix's sigma (a reported 0 is not perfection)
     velocity_sigma_m_s: float = 0.1         # 1-sigma of a reported UGV velocity
     max_ugv_speed_m_s: float = 6.0          # bounds the drift of a UGV whose velocity is unknown
+    extrapolate_fix_intervals: float = 1.5  # extrapolate up to this many of a track's fix intervals (+ its latency)
 
     def __post_init__(self) -> None:
-        if self.image_coordinates not in ("motion", "color"):
-            raise ValueError(f"image_coordinates must be 'motion' or 'color', got {self.image_coordinates!r}")
-        if self.solver not in ("optimal", "greedy"):
-            raise ValueError(f"solver must be 'optimal' or 'greedy', got {self.solver!r}")
+        for what, v, choices in (("image_coordinates", self.image_coordinates, IMAGE_COORDINATES),
+                                 ("solver", self.solver, SOLVERS)):
+            why = check_choice(what, v, choices)
+            if why:
+                raise ValueError(why)
         for name in ("gate_px", "tracking_interval_s", "hold_max_s", "robust_threshold_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        for name in ("sigma_landmark_px", "sigma_target_px"):
+            v = getattr(self, name)
+            if v is not None and not (np.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be a finite value >= 0 or None, got {v}")
 
     @property
     def plan_hold(self) -> float:
         return self.tracking_interval_s if self.plan_hold_s is None else self.plan_hold_s
+
+    def sigmas_px(self, obs: FrameObservation) -> tuple[float, float]:
+        """(landmark, target) 1-sigma pixel noise: the config's when given, else the detector's."""
+        lm = obs.sigma_ugv_blob_px if self.image_coordinates == "motion" else obs.sigma_color_px
+        return (lm if self.sigma_landmark_px is None else self.sigma_landmark_px,
+                obs.sigma_crowd_blob_px if self.sigma_target_px is None else self.sigma_target_px)
 
 
 @dataclass(frozen=True, slots=True)
@@ -115,13 +161,41 @@ class CrowdEstimate:
     blob_index: int
     east_m: float
     north_m: float
-    lat_deg: float
-    lon_deg: float
-    footprint_latlon_deg: np.ndarray        # (4, 2) lat, lon of the box corners
+    footprint_en_m: np.ndarray              # (4, 2) the blob's box corners on the ground
     radius95_m: float
     quality: FitQuality
     n_outliers: int
     area_px: float = 1.0                    # the blob's moving pixels, from the detector
+
+
+@dataclass(frozen=True, slots=True)
+class UgvPosition:
+    en_m: np.ndarray                        # (2,) east/north
+    sigma_m: float                          # 1-sigma per axis
+    source: str                             # "fix" | "extrapolated" | "plan"
+
+
+@dataclass(frozen=True, slots=True)
+class Pairing:
+    """Phase 2's outcome: which blob is which UGV, and which blobs are UGVs, never crowds."""
+
+    blob_of_ugv: dict[str, int]
+    is_ugv: np.ndarray                      # (N,) bool
+    reference_px: dict[str, tuple[float, float]]   # the point each UGV was looked for at
+    interval_start_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class FitOutcome:
+    """Phase 4's outcome: the transform to use this frame (None: none) and what it rests on."""
+
+    fit: Homography | None
+    quality: FitQuality
+    sigma_m: np.ndarray                     # GNSS 1-sigma of the landmarks given to the fit
+    age_s: float                            # > 0 when an earlier transform is held
+    used: tuple[str, ...]
+    outliers: tuple[str, ...]
+    failure: str | None
 
 
 @dataclass(frozen=True, slots=True)
@@ -148,17 +222,24 @@ def _interp_path(stamps: np.ndarray, en: np.ndarray, t: float) -> np.ndarray:
     return en[i - 1] + a * (en[i] - en[i - 1])
 
 
-def ugv_position_at(track: UgvTrack, t_s: float, cfg: LocalizerConfig) -> tuple[np.ndarray, float, str] | None:
-    """(east/north m, 1-sigma m, source) of a UGV at time t_s, or None when it is not known well enough."""
+def _extrapolate_s(track: UgvTrack, cfg: LocalizerConfig) -> float:
+    fs = track.fix_stamp_s
+    interval = float(np.median(np.diff(fs[-8:]))) if len(fs) >= 2 else 0.0
+    return max(cfg.fix_extrapolate_s, cfg.extrapolate_fix_intervals * interval + track.fix_latency_s)
+
+
+def ugv_position_at(track: UgvTrack, t_s: float, cfg: LocalizerConfig) -> UgvPosition | None:
+    """A UGV's position at time t_s, or None when it is not known well enough (phase 1)."""
     fs = track.fix_stamp_s
     if len(fs):
         last = fs[-1]
-        if fs[0] - cfg.fix_extrapolate_s <= t_s <= last:
+        reach = _extrapolate_s(track, cfg)
+        if fs[0] - reach <= t_s <= last:
             i = int(np.searchsorted(fs, t_s))
             j = max(i - 1, 0)
             sig = float(max(track.fix_sigma_m[min(i, len(fs) - 1)], track.fix_sigma_m[j]))
-            return _interp_path(fs, track.fix_en_m, t_s), max(sig, cfg.min_sigma_m), "fix"
-        if 0.0 < t_s - last <= cfg.fix_extrapolate_s:
+            return UgvPosition(_interp_path(fs, track.fix_en_m, t_s), max(sig, cfg.min_sigma_m), "fix")
+        if 0.0 < t_s - last <= reach:
             # Extrapolate with the receiver's own velocity. Differencing two noisy fixes would amplify
             # their noise (1 m noise, 0.2 s apart: 7 m/s), so without a velocity the fix is held and
             # its sigma grows by the distance an unseen UGV could cover.
@@ -170,134 +251,150 @@ def ugv_position_at(track: UgvTrack, t_s: float, cfg: LocalizerConfig) -> tuple[
             else:
                 p = track.fix_en_m[-1].copy()
                 sig = float(np.hypot(sig, cfg.max_ugv_speed_m_s * dt / 2.0))
-            return p, max(sig, cfg.min_sigma_m), "extrapolated"
+            return UgvPosition(p, max(sig, cfg.min_sigma_m), "extrapolated")
         age = t_s - last
     else:
         age = np.inf
     ps = track.plan_stamp_s
     if len(ps) and age <= cfg.plan_hold and ps[0] <= t_s <= ps[-1]:
         sig = float(np.hypot(cfg.plan_sigma_m, track.fix_sigma_m[-1] if len(fs) else 0.0))
-        return _interp_path(ps, track.plan_en_m, t_s), max(sig, cfg.min_sigma_m), "plan"
+        return UgvPosition(_interp_path(ps, track.plan_en_m, t_s), max(sig, cfg.min_sigma_m), "plan")
     return None
 
 
-def localize_step(state: LocalizerState, obs: FrameObservation, tracks: dict[str, UgvTrack],
-                  cfg: LocalizerConfig) -> tuple[LocalizerState, StepResult]:
-    t = obs.stamp_s
-    blobs = np.asarray(obs.blob_xy_px, float).reshape(-1, 2)
-    boxes = np.asarray(obs.blob_xyxy_px, float).reshape(-1, 4)
-    nb = len(blobs)
-    areas = np.ones(nb) if obs.blob_area_px is None else np.asarray(obs.blob_area_px, float).reshape(-1)
-    if len(areas) != nb:
-        raise ValueError(f"{len(areas)} blob areas for {nb} blobs")
-
-    # 1. UGV ground positions at the frame time
-    positions: dict[str, tuple[np.ndarray, float, str]] = {}
+def ugv_positions(tracks: Mapping[str, UgvTrack], t_s: float, cfg: LocalizerConfig) -> dict[str, UgvPosition]:
+    """Phase 1: every UGV whose position at ``t_s`` is known well enough."""
+    out = {}
     for ugv, tr in tracks.items():
-        pos = ugv_position_at(tr, t, cfg)
+        pos = ugv_position_at(tr, t_s, cfg)
         if pos is not None:
-            positions[ugv] = pos
+            out[ugv] = pos
+    return out
 
-    # 2. assignment (fresh at interval start, by continuity inside it)
+
+def pair_landmarks(state: LocalizerState, obs: FrameObservation, cfg: LocalizerConfig) -> Pairing:
+    """Phase 2: blobs to UGVs (labelled blobs, then gated assignment from the labels or, inside a
+    tracking interval, from each UGV's previous blob), and every blob that is a UGV."""
+    t = obs.stamp_s
+    blobs = obs.blobs
+    xy = blobs.xy_px
+    nb = len(blobs)
     new_interval = state.interval_start_s is None or t - state.interval_start_s >= cfg.tracking_interval_s \
         or t < state.interval_start_s
-    prev = {u: (x, y) for u, x, y in state.blob_px_of_ugv}
-    ref: dict[str, tuple[float, float]] = dict(obs.landmarks_px)
-    if not new_interval:
-        ref.update(prev)  # the previous blob predicts the current one better than a flickering color
-    # blobs the detector already knows to be a UGV (its roof label lies in the blob) are that UGV's
-    labelled = {u: j for j, u in enumerate(obs.blob_ugv[:nb]) if u}
+    label_px = obs.landmarks.as_dict()
+    ref: dict[str, tuple[float, float]] = dict(label_px)
+    if not new_interval:   # the previous blob predicts the current one better than a flickering label
+        ref.update({u: (x, y) for u, x, y in state.blob_px_of_ugv})
+    labelled = {u: j for j, u in enumerate(blobs.ugv) if u}
     to_assign = sorted(u for u in ref if u not in labelled)
     free = np.array([j for j in range(nb) if j not in labelled.values()], int)
     ref_xy = np.array([ref[u] for u in to_assign], float).reshape(-1, 2)
     solve = assign_optimal if cfg.solver == "optimal" else assign_greedy
-    asg = solve(ref_xy, blobs[free], cfg.gate_px)
-    gated = np.zeros(nb, bool)
-    gated[free] = asg.gated_blobs
-    gated[list(labelled.values())] = True
-    # color centres gate blobs too, whatever the continuity says; but not those of UGVs the detector
-    # found a blob for: it carved that UGV out of whatever it drove through, so the rest is not the UGV
-    col = [xy for u, xy in obs.landmarks_px.items() if u not in labelled]
-    if col and nb:
-        col = np.array(col, float)
-        gated |= (np.sqrt(((col[:, None] - blobs[None]) ** 2).sum(-1)) <= cfg.gate_px).any(0)
+    asg = solve(ref_xy, xy[free], cfg.gate_px)
+    is_ugv = np.zeros(nb, bool)
+    is_ugv[free] = asg.gated_blobs
+    is_ugv[list(labelled.values())] = True
+    # labels gate blobs too, whatever the continuity says; but not those of UGVs the detector found a
+    # blob for: it carved that UGV out of whatever it drove through, so the rest is not the UGV
+    unlabelled = [p for u, p in label_px.items() if u not in labelled]
+    if unlabelled and nb:
+        p = np.array(unlabelled, float)
+        is_ugv |= (np.sqrt(((p[:, None] - xy[None]) ** 2).sum(-1)) <= cfg.gate_px).any(0)
     blob_of_ugv = {to_assign[i]: int(free[j]) for i, j in asg.blob_of_landmark.items()}
     blob_of_ugv.update(labelled)
-    interval_start = t if new_interval else state.interval_start_s
+    return Pairing(blob_of_ugv, is_ugv, ref, t if new_interval else state.interval_start_s)
 
-    # landmark image coordinates
-    lm_px: dict[str, np.ndarray] = {}
-    for u in sorted(ref):
-        color = obs.landmarks_px.get(u)
-        motion = blobs[blob_of_ugv[u]] if u in blob_of_ugv else None
-        first, second = (motion, color) if cfg.image_coordinates == "motion" else (color, motion)
+
+def landmark_pixels(obs: FrameObservation, pairing: Pairing, cfg: LocalizerConfig) -> dict[str, np.ndarray]:
+    """Phase 3: each landmark's image point (motion-blob or label centre, by ``image_coordinates``)."""
+    label_px = obs.landmarks.as_dict()
+    out: dict[str, np.ndarray] = {}
+    for u in sorted(pairing.reference_px):
+        label = label_px.get(u)
+        motion = obs.blobs.xy_px[pairing.blob_of_ugv[u]] if u in pairing.blob_of_ugv else None
+        first, second = (motion, label) if cfg.image_coordinates == "motion" else (label, motion)
         chosen = first if first is not None else second
         if chosen is not None:
-            lm_px[u] = np.asarray(chosen, float)
+            out[u] = np.asarray(chosen, float)
+    return out
 
-    used = [u for u in sorted(lm_px) if u in positions]
-    fit: Homography | FitFailure | None = None
-    failure = None
-    outliers: tuple[str, ...] = ()
-    sig_m = np.array([positions[u][1] for u in used])
+
+def fit_transform(state: LocalizerState, t_s: float, lm_px: Mapping[str, np.ndarray],
+                  positions: Mapping[str, UgvPosition], cfg: LocalizerConfig) -> FitOutcome:
+    """Phase 4: the transform from this frame's landmarks, or the last one held, or none."""
+    used = tuple(u for u in sorted(lm_px) if u in positions)
+    sig_m = np.array([positions[u].sigma_m for u in used])
+    failure, outliers = None, ()
     if len(used) >= 4:
-        px = np.array([lm_px[u] for u in used])
-        en = np.array([positions[u][0] for u in used])
-        fit = fit_homography_robust(px, en, threshold_m=cfg.robust_threshold_m)
-        if not fit:
-            failure = f"{fit.reason.value}: {fit.detail}"
-            fit = None
-        else:
-            outliers = tuple(used[i] for i in fit.outliers)
+        fit = fit_homography_robust(np.array([lm_px[u] for u in used]), np.array([positions[u].en_m for u in used]),
+                                    threshold_m=cfg.robust_threshold_m)
+        if fit:
+            return FitOutcome(fit, fit.quality, sig_m, 0.0, used, tuple(used[i] for i in fit.outliers), None)
+        failure = f"{fit.reason.value}: {fit.detail}"
     else:
         failure = f"too_few: {len(used)} usable landmarks"
+    if state.last_fit is not None and 0.0 <= t_s - state.last_fit_stamp_s <= cfg.hold_max_s:
+        return FitOutcome(state.last_fit, FitQuality.HELD, state.last_fit_sigma_m, t_s - state.last_fit_stamp_s,
+                          used, outliers, failure)
+    return FitOutcome(None, FitQuality.FAILED, sig_m, 0.0, used, outliers, failure)
 
-    age = 0.0
-    new_fit, new_fit_stamp, new_sig = state.last_fit, state.last_fit_stamp_s, state.last_fit_sigma_m
-    if fit is not None:
-        quality = fit.quality
-        new_fit, new_fit_stamp, new_sig = fit, t, sig_m
-    elif state.last_fit is not None and 0.0 <= t - state.last_fit_stamp_s <= cfg.hold_max_s:
-        fit, sig_m = state.last_fit, state.last_fit_sigma_m
-        age = t - state.last_fit_stamp_s
-        quality = FitQuality.HELD
-    else:
-        quality = FitQuality.FAILED
 
-    crowds: list[CrowdEstimate] = []
-    if fit is not None and nb:
-        # a UGV whose color was missed and that holds no assigned blob: a blob whose box holds its
-        # projected position, or near it, is that UGV, never a crowd (a UGV that was seen is not looked
-        # for in other blobs: the detector carves a UGV out of a crowd it drives through)
-        unseen = [u for u in positions if u not in obs.landmarks_px and u not in blob_of_ugv]
-        if unseen:
-            ugv_px = fit.ground_to_px(np.array([positions[u][0] for u in unseen]))
-            inside = ((ugv_px[:, None, 0] >= boxes[None, :, 0]) & (ugv_px[:, None, 0] <= boxes[None, :, 2])
-                      & (ugv_px[:, None, 1] >= boxes[None, :, 1]) & (ugv_px[:, None, 1] <= boxes[None, :, 3]))
-            near = np.sqrt(((ugv_px[:, None] - blobs[None]) ** 2).sum(-1)) <= cfg.gate_px
-            gated |= (inside | near).any(0)
-        targets = [j for j in range(nb) if not gated[j] and j not in blob_of_ugv.values()]
-        if targets:
-            en, cov = fit.map_points_with_cov(blobs[targets], cfg.sigma_target_px, cfg.sigma_landmark_px, sig_m)
-            r95 = radius95_m(cov) + (cfg.held_growth_m_s * age if quality == FitQuality.HELD else 0.0)
-            corners = boxes[targets][:, [0, 1, 2, 1, 2, 3, 0, 3]].reshape(-1, 2)
-            pts = np.vstack([en, fit.px_to_ground(corners)])  # centres, then 4 corners each
-            lat_all, lon_all = cfg.frame.ground_to_wgs84(pts[:, 0], pts[:, 1])
-            nt = len(targets)
-            lat, lon = lat_all[:nt], lon_all[:nt]
-            fp_ll = np.stack([lat_all[nt:], lon_all[nt:]], -1).reshape(-1, 4, 2)
-            n_out = int((~fit.inliers).sum())
-            # a point beyond the horizon of a bad transform is dropped: never a NaN on the map
-            finite = np.isfinite(en).all(1) & np.isfinite(r95) & np.isfinite(fp_ll).all((1, 2))
-            for k in np.flatnonzero(finite).tolist():
-                j = targets[k]
-                crowds.append(CrowdEstimate(j, float(en[k, 0]), float(en[k, 1]), float(lat[k]), float(lon[k]),
-                                            fp_ll[k], float(r95[k]), quality, n_out, float(areas[j])))
+def claim_unseen(fit: Homography, blobs: Blobs, positions: Mapping[str, UgvPosition], seen: set[str],
+                 cfg: LocalizerConfig) -> np.ndarray:
+    """Phase 5a: (N,) bool, the blobs claimed by UGVs seen neither by label nor by an assigned blob:
+    a blob whose box holds such a UGV's projected position, or whose centre is within the gate of it.
+    (A UGV that was seen is not looked for in other blobs: the detector carves a UGV out of a crowd it
+    drives through.)"""
+    unseen = [u for u in positions if u not in seen]
+    if not unseen or not len(blobs):
+        return np.zeros(len(blobs), bool)
+    p = fit.ground_to_px(np.array([positions[u].en_m for u in unseen]))
+    box = blobs.xyxy_px
+    inside = ((p[:, None, 0] >= box[None, :, 0]) & (p[:, None, 0] <= box[None, :, 2])
+              & (p[:, None, 1] >= box[None, :, 1]) & (p[:, None, 1] <= box[None, :, 3]))
+    near = np.sqrt(((p[:, None] - blobs.xy_px[None]) ** 2).sum(-1)) <= cfg.gate_px
+    return (inside | near).any(0)
 
+
+def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landmark_px: float,
+                sigma_target_px: float, cfg: LocalizerConfig) -> tuple[CrowdEstimate, ...]:
+    """Phase 5b: the target blobs (indices) on the ground with their 95 % radii and footprints. A point
+    beyond the horizon of a bad transform is dropped: never a NaN on the map."""
+    if not len(targets) or fit.fit is None:
+        return ()
+    h = fit.fit
+    en, cov = h.map_points_with_cov(blobs.xy_px[targets], sigma_target_px, sigma_landmark_px, fit.sigma_m)
+    r95 = radius95_m(cov) + (cfg.held_growth_m_s * fit.age_s if fit.quality == FitQuality.HELD else 0.0)
+    corners = blobs.xyxy_px[targets][:, [0, 1, 2, 1, 2, 3, 0, 3]].reshape(-1, 2)
+    fp = h.px_to_ground(corners).reshape(-1, 4, 2)
+    n_out = int((~h.inliers).sum())
+    finite = np.isfinite(en).all(1) & np.isfinite(r95) & np.isfinite(fp).all((1, 2))
+    return tuple(CrowdEstimate(int(targets[k]), float(en[k, 0]), float(en[k, 1]), fp[k], float(r95[k]), fit.quality,
+                               n_out, float(blobs.area_px[targets[k]])) for k in np.flatnonzero(finite))
+
+
+def localize_step(state: LocalizerState, obs: FrameObservation, tracks: Mapping[str, UgvTrack],
+                  cfg: LocalizerConfig) -> tuple[LocalizerState, StepResult]:
+    """One frame through the five phases (module docstring); returns the next state and the result."""
+    t = obs.stamp_s
+    positions = ugv_positions(tracks, t, cfg)
+    pairing = pair_landmarks(state, obs, cfg)
+    lm_px = landmark_pixels(obs, pairing, cfg)
+    fit = fit_transform(state, t, lm_px, positions, cfg)
+    crowds: tuple[CrowdEstimate, ...] = ()
+    if fit.fit is not None and len(obs.blobs):
+        seen = set(obs.landmarks.ugv) | set(pairing.blob_of_ugv)
+        is_ugv = pairing.is_ugv | claim_unseen(fit.fit, obs.blobs, positions, seen, cfg)
+        is_ugv[list(pairing.blob_of_ugv.values())] = True
+        s_lm, s_tg = cfg.sigmas_px(obs)
+        crowds = map_targets(fit, obs.blobs, np.flatnonzero(~is_ugv), s_lm, s_tg, cfg)
+    fresh = fit.fit is not None and fit.quality != FitQuality.HELD
+    xy = obs.blobs.xy_px
     new_state = replace(
-        state, interval_start_s=interval_start,
-        blob_px_of_ugv=tuple((u, float(blobs[j][0]), float(blobs[j][1])) for u, j in sorted(blob_of_ugv.items())),
-        last_fit=new_fit, last_fit_stamp_s=new_fit_stamp, last_fit_sigma_m=new_sig)
-    result = StepResult(t, quality, tuple(crowds), tuple(used), outliers, blob_of_ugv,
-                        {u: p[2] for u, p in positions.items()}, age, failure)
+        state, interval_start_s=pairing.interval_start_s,
+        blob_px_of_ugv=tuple((u, float(xy[j][0]), float(xy[j][1])) for u, j in sorted(pairing.blob_of_ugv.items())),
+        last_fit=fit.fit if fresh else state.last_fit, last_fit_stamp_s=t if fresh else state.last_fit_stamp_s,
+        last_fit_sigma_m=fit.sigma_m if fresh else state.last_fit_sigma_m)
+    result = StepResult(t, fit.quality, crowds, fit.used, fit.outliers, pairing.blob_of_ugv,
+                        {u: p.source for u, p in positions.items()}, fit.age_s, fit.failure)
     return new_state, result

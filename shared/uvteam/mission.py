@@ -7,6 +7,8 @@ vehicle's position, the legs' lengths and their speeds.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .autopilot import MAV_CMD_DO_CHANGE_SPEED, MAV_CMD_NAV_WAYPOINT, MissionItem
@@ -14,7 +16,7 @@ from .geo import LocalFrame
 from .messages import Plan, Waypoint
 from .planning import StationPlan
 
-__all__ = ["plan_to_mission", "mission_to_plan"]
+__all__ = ["plan_to_mission", "mission_to_plan", "mission_legs", "Leg"]
 
 
 def plan_to_mission(plan: StationPlan, frame: LocalFrame) -> list[MissionItem]:
@@ -26,19 +28,37 @@ def plan_to_mission(plan: StationPlan, frame: LocalFrame) -> list[MissionItem]:
     return items
 
 
-def mission_to_plan(vehicle: str, items: list[MissionItem], frame: LocalFrame, start_en_m, now_s: float,
-                    default_speed_m_s: float) -> Plan:
-    speed = default_speed_m_s
-    pos = np.asarray(start_en_m, float)
-    t = now_s
-    wps = []
+@dataclass(frozen=True, slots=True)
+class Leg:
+    """A mission leg: where it ends and the speed commanded on it."""
+
+    lat_deg: float
+    lon_deg: float
+    speed_m_s: float
+
+
+def mission_legs(items: list[MissionItem], default_speed_m_s: float) -> list[Leg]:
+    """The waypoints of a mission with the speed in force on the leg to each (a DO_CHANGE_SPEED holds
+    until the next one; before the first, ``default_speed_m_s``)."""
+    speed, legs = default_speed_m_s, []
     for it in items:
         if it.command == MAV_CMD_DO_CHANGE_SPEED and it.param2 > 0:
             speed = float(it.param2)
         elif it.command == MAV_CMD_NAV_WAYPOINT:
-            e, n = frame.wgs84_to_ground(it.lat_deg, it.lon_deg)
-            nxt = np.array([float(e), float(n)])
-            t += float(np.hypot(*(nxt - pos))) / max(speed, 0.05)
-            pos = nxt
-            wps.append(Waypoint(t, it.lat_deg, it.lon_deg))
+            legs.append(Leg(it.lat_deg, it.lon_deg, speed))
+    return legs
+
+
+def mission_to_plan(vehicle: str, items: list[MissionItem], frame: LocalFrame, start_en_m, now_s: float,
+                    default_speed_m_s: float) -> Plan:
+    """The plan a mission makes: each waypoint with the time the vehicle reaches it from ``start_en_m``."""
+    pos = np.asarray(start_en_m, float)
+    t = now_s
+    wps = []
+    for leg in mission_legs(items, default_speed_m_s):
+        e, n = frame.wgs84_to_ground(leg.lat_deg, leg.lon_deg)
+        nxt = np.array([float(e), float(n)])
+        t += float(np.hypot(*(nxt - pos))) / max(leg.speed_m_s, 0.05)
+        pos = nxt
+        wps.append(Waypoint(t, leg.lat_deg, leg.lon_deg))
     return Plan(vehicle, now_s, tuple(wps))

@@ -1,5 +1,12 @@
-"""What every service shell shares: argument parsing, logging with the vehicle id, a stop flag set by
-SIGINT/SIGTERM, and exit codes (0 ok, 2 configuration error, 3 link error)."""
+"""The skeleton every service shell shares, written once: argument parsing and config loading (exit 2 on
+a bad config), logging with the vehicle id, opening the bus and declaring liveliness, the node's
+worker threads, status at 1 Hz with typed metrics, a newest-wins slot, and a clean shutdown on
+SIGINT/SIGTERM. Exit codes: 0 ok, 2 configuration error, 3 link error.
+
+A service's logic is a *node* (:mod:`uvteam.nodes`): a class handed its bus, autopilot and clock, with
+no I/O of its own. The shell (``services/uvteam_*/app.py``) opens the real links and calls
+:func:`run_node`; the experiment drives the same node classes over the in-memory bus in simulated time.
+"""
 
 from __future__ import annotations
 
@@ -8,14 +15,22 @@ import logging
 import signal
 import sys
 import threading
-from typing import Callable
+import time
+from typing import Any, Callable, Protocol
 
-from .io.files import load_vehicle_config
-from .io.zenoh_bus import add_bus_args, bus_config_from_args
+from . import keys
+from .bus import Bus
 from .config import VehicleConfig
 from .errors import ConfigError, LinkError
+from .io.files import load_vehicle_config
+from .io.zenoh_bus import ZenohBus, add_bus_args, bus_config_from_args
+from .messages import Status
 
-__all__ = ["service_main", "StopFlag", "setup_logging"]
+__all__ = ["service_main", "run_node", "Node", "StopFlag", "LatestSlot", "setup_logging", "STATUS_PERIOD_S"]
+
+log = logging.getLogger(__name__)
+STATUS_PERIOD_S = 1.0
+STEP_TIMEOUT_S = 0.02
 
 
 def setup_logging(name: str, level: str = "INFO") -> None:
@@ -40,6 +55,85 @@ class StopFlag:
 
     def set(self) -> None:
         self.event.set()
+
+
+class LatestSlot:
+    """One waiting item; a newer one replaces it (counted in ``dropped``): work never falls behind."""
+
+    def __init__(self) -> None:
+        self._cv = threading.Condition()
+        self._item: Any = None
+        self.dropped = 0
+
+    def put(self, item: Any) -> None:
+        with self._cv:
+            if self._item is not None:
+                self.dropped += 1
+            self._item = item
+            self._cv.notify()
+
+    def take(self, timeout_s: float) -> Any:
+        """The waiting item (None when none came within ``timeout_s``; 0 does not wait)."""
+        with self._cv:
+            if self._item is None and timeout_s > 0:
+                self._cv.wait(timeout_s)
+            item, self._item = self._item, None
+            return item
+
+
+class Node(Protocol):
+    """What :func:`run_node` needs of a service's logic."""
+
+    service: str                                    # "uav" | "ugv" | "localizer"
+
+    def start(self) -> None: ...                    # subscribe on the bus
+    def step(self, timeout_s: float) -> None: ...   # the main loop's work; may wait up to timeout_s for some
+    def workers(self) -> list[tuple[str, Callable[[StopFlag], None]]]: ...   # loops for threads of their own
+    def metrics(self) -> dict[str, float]: ...      # numbers for the status message
+    def link_state(self) -> str: ...                # the autopilot link: "up" | "down" | "none"
+    def note(self) -> str: ...                      # one line for people
+
+
+def status_of(cfg: VehicleConfig, node: Node, bus: Bus, now_s: float) -> Status:
+    return Status(cfg.id, node.service, now_s, node.link_state(), bus.rejected_total, bus.published, bus.received,
+                  {k: float(v) for k, v in node.metrics().items()}, node.note()[:256])
+
+
+Worker = tuple[str, Callable[[StopFlag], None]]
+
+
+def run_node(cfg: VehicleConfig, stop: StopFlag, make_node: Callable[[Bus], Node],
+             shell_workers: Callable[[Node], list[Worker]] | None = None) -> int:
+    """Open the zenoh bus, declare liveliness, run the node until ``stop``; status once a second.
+    ``shell_workers``: loops of the shell's own I/O (a camera) that feed the node, on threads too."""
+    with ZenohBus.open(cfg.bus) as bus:
+        bus.declare_alive(keys.alive(cfg.team, cfg.id))
+        node = make_node(bus)
+        node.start()
+        loops = node.workers() + (shell_workers(node) if shell_workers else [])
+        threads = [threading.Thread(target=fn, args=(stop,), name=name, daemon=True) for name, fn in loops]
+        for t in threads:
+            t.start()
+        status_key = keys.key(cfg.team, cfg.id, "status")
+        log.info("%s %s up (%s)", cfg.role, cfg.id, node.note() or "no data yet")
+        next_status = 0.0
+        try:
+            while not stop.is_set():
+                node.step(STEP_TIMEOUT_S)
+                now = time.time()
+                if now >= next_status:
+                    bus.publish(status_key, status_of(cfg, node, bus, now))
+                    next_status = now + STATUS_PERIOD_S
+        finally:
+            stop.set()
+            for t in threads:
+                t.join(timeout=2.0)
+            close = getattr(node, "close", None)
+            if close is not None:
+                close()
+            log.info("%s %s stopping: %s", cfg.role, cfg.id,
+                     " ".join(f"{k}={v:g}" for k, v in sorted(node.metrics().items())))
+    return 0
 
 
 def service_main(argv: list[str] | None, prog: str, description: str, role: str,

@@ -31,8 +31,9 @@ def team_bus(tcp_port):
         while not stop.is_set():
             now = time.time()
             bus.publish(keys.key(TEAM, "ugv1", "fix"), Fix("ugv1", now - 0.2, 31.485, -111.544, 1300.0, 90.0, 0.5))
-            bus.publish(keys.key(TEAM, "ugv1", "status"), Status("ugv1", "ugv", now, "up", 4, k, k, "crowds_received=7"))
-            bus.publish(keys.key(TEAM, "uav1", "crowds"), Crowds("loc1", now, "exact", ("ugv1",), (), (crowd,)))
+            bus.publish(keys.key(TEAM, "ugv1", "status"), Status("ugv1", "ugv", now, "up", 4, k, k,
+                                                                 {"crowds_received": 7.0}, "on station"))
+            bus.publish(keys.key(TEAM, "loc1", "crowds"), Crowds("loc1", "uav1", now, "exact", ("ugv1",), (), (crowd,)))
             bus.publish(keys.key(TEAM, "uav1", "frame"), Frame("uav1", now, k, 2, 1, "bgr8", b"\x00" * 6))
             bus.put_raw(keys.key(TEAM, "ugv1", "plan"), b"\xc1 not msgpack")
             k += 1
@@ -60,8 +61,9 @@ def test_tap_summary_table(team_bus):
     assert 0.1 <= float(ugv1[2]) < 1.5                         # fix age: published 0.2 s after capture
     assert 15 <= float(ugv1[3]) <= 25                          # fix + status, 10 Hz each (bad plans not counted)
     assert ugv1[4] == "up" and ugv1[5] == "4"                  # link, the service's own rejected count
-    assert "crowds_received=7" in rows["ugv1"]
+    assert "on station" in rows["ugv1"] and "crowds_received=7" in table   # the note, then the metrics
     assert rows["uav1"].split()[1] == "yes"
+    assert float(rows["uav1"].split()[3]) == 0.0               # its 10 Hz frames are not pulled by default
     assert "crowd 3: 31.485100, -111.544100  r95 0.90 m  exact" in table
     bad = int(table.split("undecodable here:")[1].split()[0])
     assert bad >= 10                                           # the garbage plans, counted here too

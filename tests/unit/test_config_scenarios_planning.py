@@ -9,9 +9,10 @@ from uvteam.geo import LocalFrame
 from uvteam.planning import plan_stations
 from uvteam.io.files import load_scenario
 from uvteam.mission import mission_to_plan, plan_to_mission
+from uvteam_ground.demo import DEFAULT_SCENARIO
 
 REPO = Path(__file__).resolve().parents[2]
-SCENARIOS = sorted((REPO.parent / "shared" / "scenarios").glob("*.toml")) + [REPO / "deploy" / "scenarios" / "demo.toml"]
+SCENARIOS = sorted((REPO.parent / "shared" / "scenarios").glob("*.toml")) + [DEFAULT_SCENARIO]
 
 
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.name)

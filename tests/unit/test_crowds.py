@@ -4,20 +4,16 @@ import numpy as np
 import pytest
 
 from uvteam.crowds import GroupingConfig, GroupingState, crowd_groups, report_crowds
-from uvteam.geo import LocalFrame
 from uvteam.homography import FitQuality
 from uvteam.localizer import CrowdEstimate
 
-FRAME = LocalFrame(31.485, -111.544, 1300.0)
 T0 = 1_700_000_000.0
 
 
 def estimate(e, n, area=1.0, r95=1.0, half=1.0):
     """A crowd estimate at (e, n) with a square footprint of half-side ``half`` m."""
-    lat, lon = FRAME.ground_to_wgs84(np.array([e - half, e + half]), np.array([n - half, n + half]))
-    fp = np.array([[lat[1], lon[0]], [lat[1], lon[1]], [lat[0], lon[1]], [lat[0], lon[0]]])
-    la, lo = FRAME.ground_to_wgs84(np.array([e]), np.array([n]))
-    return CrowdEstimate(0, float(e), float(n), float(la[0]), float(lo[0]), fp, r95, FitQuality.LEAST_SQUARES, 0, area)
+    fp = np.array([[e - half, n + half], [e + half, n + half], [e + half, n - half], [e - half, n - half]])
+    return CrowdEstimate(0, float(e), float(n), fp, r95, FitQuality.LEAST_SQUARES, 0, area)
 
 
 def run(parts_at, seconds=6.0, rate_hz=10.0, seed=0, jitter_m=0.3, cfg=GroupingConfig()):
@@ -29,7 +25,7 @@ def run(parts_at, seconds=6.0, rate_hz=10.0, seed=0, jitter_m=0.3, cfg=GroupingC
         t = f / rate_hz
         ests = tuple(estimate(e + rng.normal(0, jitter_m), n + rng.normal(0, jitter_m), a, half=h[0] if h else 1.0)
                      for e, n, a, *h in parts_at(t))
-        state, out = report_crowds(state, ests, T0 + t, FRAME, cfg)
+        state, out = report_crowds(state, ests, T0 + t, cfg)
         counts.append(len(out))
     run.counts = counts   # crowds reported per frame
     run.state = state
@@ -47,18 +43,19 @@ def test_parts_moving_together_are_one_crowd(seed):
 def test_one_crowd_is_reported_at_its_parts_area_weighted_centre():
     out = run(lambda t: [(1.4 * t, 0.0, 30.0), (1.4 * t + 6.0, 0.0, 6.0)], jitter_m=0.0)
     assert len(out) == 1
-    c, tr = out[0]
+    c, tr = out[0].estimate, out[0].track
     assert c.east_m == pytest.approx(1.4 * 5.9 + 6.0 * 6 / 36) and c.north_m == pytest.approx(0.0, abs=1e-9)
     assert c.area_px == pytest.approx(36.0) and tr.hits == 60
-    la, lo = FRAME.ground_to_wgs84(np.array([c.east_m]), np.array([c.north_m]))
-    assert c.lat_deg == pytest.approx(la[0]) and c.lon_deg == pytest.approx(lo[0])
+    # the footprint is the box round both parts' footprints (+-1 m each)
+    assert c.footprint_en_m.min(0) == pytest.approx([1.4 * 5.9 - 1.0, -1.0])
+    assert c.footprint_en_m.max(0) == pytest.approx([1.4 * 5.9 + 7.0, 1.0])
 
 
 def test_two_crowds_closing_in_are_two():
     # 10 m apart and closing at 0.7 m/s: within near_m, but their distance changes -> two crowds
     out = run(lambda t: [(0.0, 1.2 * t, 20.0), (10.0 - 0.7 * t, 1.2 * t, 10.0)])
     assert len(out) == 2 and set(run.counts[-20:]) == {2}
-    east = sorted(c.east_m for c, _ in out)
+    east = sorted(r.estimate.east_m for r in out)
     assert abs(east[0] - 0.0) < 1.5 and abs(east[1] - (10.0 - 0.7 * 5.9)) < 1.5   # raw estimates, 0.3 m jitter
 
 
@@ -94,29 +91,9 @@ def test_a_blob_of_one_frame_does_not_pull_a_crowd():
         t = f / 10.0
         de, dn = spots[(f // 7) % 3]
         ests = (estimate(1.4 * t, 0.0, 30.0),) + ((estimate(1.4 * t + de, dn, 30.0),) if f % 7 == 3 else ())
-        state, out = report_crowds(state, ests, T0 + t, FRAME)
+        state, out = report_crowds(state, ests, T0 + t)
         if f >= 2:
-            assert len(out) == 1 and out[0][0].east_m == pytest.approx(1.4 * t)
-
-
-def test_blob_areas_cross_the_wire_from_the_uav_pipeline():
-    # the UAV service's Detections carry each blob's moving pixels; a sender without them still decodes
-    from uvteam.messages import Blob, Detections, decode, encode
-    from uvteam.vision.motion import MotionBlobs
-    from uvteam.vision.uav import UavFrameResult
-    from uvteam_uav.app import detections_from
-
-    blobs = MotionBlobs(np.array([[10.0, 20.0], [30.0, 40.0]]), np.array([[0, 0, 20, 40], [20, 30, 40, 50.0]]),
-                        np.array([900.0, 150.0]), 100, 90, 0.3, np.array([-1, 0]))
-    r = UavFrameResult(T0, {"red": (30.0, 40.0)}, blobs, ("", "red"))
-    det = decode(Detections, encode(detections_from(r, "uav1", 1, 1280, 720, 50.0, {"red": "ugv1"})))
-    assert [b.area_px for b in det.blobs] == [900.0, 150.0] and [b.ugv for b in det.blobs] == ["", "ugv1"]
-    import msgpack
-    wire = msgpack.unpackb(encode(det))
-    for b in wire["data"]["blobs"]:
-        del b["area_px"]   # as a sender from before blob areas
-    old = decode(Detections, msgpack.packb(wire))
-    assert [b.area_px for b in old.blobs] == [1.0, 1.0] and Blob(1.0, 2.0, 0.0, 0.0, 3.0, 4.0).area_px == 1.0
+            assert len(out) == 1 and out[0].estimate.east_m == pytest.approx(1.4 * t)
 
 
 def test_a_small_part_beside_a_crowds_edge_joins_it_a_big_one_does_not():
@@ -128,7 +105,7 @@ def test_a_small_part_beside_a_crowds_edge_joins_it_a_big_one_does_not():
         for f in range(30):
             t = f / 10.0
             ests = (estimate(1.4 * t, 0.0, 30.0, half=7.0), estimate(1.4 * t + 12.5, 0.0, area, half=2.0))
-            state, out = report_crowds(state, ests, T0 + t, FRAME)
+            state, out = report_crowds(state, ests, T0 + t)
         assert len(out) == crowds
 
 
@@ -137,7 +114,7 @@ def test_two_crowds_once_far_apart_stay_two_when_they_close_in_slowly():
     # nothing, but they were seen as two crowds before, so they stay two; parts first seen near stay one
     out = run(lambda t: [(0.0, 1.2 * t, 20.0), (20.0 - 0.3 * t, 1.2 * t, 10.0)], seconds=40.0)
     assert run.counts[-1] == 2 and min(run.counts[3:]) == 2 and len(run.state.apart) == 1
-    assert min(abs(c.east_m - 8.0) for c, _ in out) < 1.0          # 8 m apart at the end: within near_m
+    assert min(abs(r.estimate.east_m - 8.0) for r in out) < 1.0          # 8 m apart at the end: within near_m
     run(lambda t: [(0.0, 1.2 * t, 20.0), (8.0, 1.2 * t, 10.0)], seconds=10.0)
     assert set(run.counts[3:]) == {1}
     # nothing learnt without it: the same approach with apart_m out of reach joins them within near_m
@@ -219,7 +196,7 @@ def test_a_merge_is_remembered_only_for_crowds_known_apart_and_is_forgotten_with
     # the blob that took B in holds it while its track lives; a crowd never known apart holds nothing
     run(lambda t: _merge_and_part(min(t, 12.0)), 14.0)
     (x, since), = run.state.holds.items()
-    assert [h[0] for h in since] == [pytest.approx(T0 + 10.1)]
+    assert [h.since_s for h in since] == [pytest.approx(T0 + 10.1)]
     assert x == min(t.track_id for t in run.state.tracker.tracks)
     run(lambda t: _merge_and_part(min(t, 12.0)) if t < 12.0 else [], 14.0)
     assert run.state.holds == {} and run.state.tracker.tracks == ()

@@ -1,13 +1,12 @@
 import numpy as np
 import pytest
 
+from uvteam.blobs import Blobs, Landmarks
 from uvteam.camera import CameraPose, PinholeCamera, project
-from uvteam.geo import LocalFrame
 from uvteam.homography import FitQuality
 from uvteam.localizer import (FrameObservation, LocalizerConfig, LocalizerState, UgvTrack,
                               localize_step, ugv_position_at)
 
-FRAME = LocalFrame(31.4850, -111.5440, 1300.0)
 CAM = PinholeCamera(1280, 720, 78.0)
 POSE = CameraPose(0.0, 0.0, 50.0, yaw_deg=15.0)
 UGVS = {"red": (12.0, 0.0), "green": (0.0, 12.0), "blue": (-12.0, 1.0), "yellow": (2.0, -12.0),
@@ -21,18 +20,24 @@ def track_at(en, t0=0.0, t1=2.0, sigma=0.0, velocity=(0.0, 0.0)):
     return UgvTrack(ts, pos, np.full(len(ts), sigma))
 
 
+def frame_obs(t, labels: dict, xy, boxes=None, ugv=(), areas=None) -> FrameObservation:
+    xy = np.asarray(xy, float).reshape(-1, 2)
+    boxes = np.column_stack([xy - 15, xy + 15]) if boxes is None else boxes
+    areas = np.ones(len(xy)) if areas is None else areas
+    return FrameObservation(t, Landmarks.from_dict(labels), Blobs(xy, boxes, areas, tuple(ugv)))
+
+
 def observation(t, ugvs=UGVS, crowd=CROWD, color=None):
     names = list(ugvs)
     lm_px = project(CAM, POSE, np.array([ugvs[u] for u in names]))
     crowd_px = project(CAM, POSE, crowd)
     blobs = np.vstack([lm_px, crowd_px])
-    boxes = np.column_stack([blobs - 15, blobs + 15])
     color = names if color is None else color
-    return FrameObservation(t, {u: tuple(lm_px[names.index(u)]) for u in color}, blobs, boxes)
+    return frame_obs(t, {u: tuple(lm_px[names.index(u)]) for u in color}, blobs)
 
 
 def cfg(**kw):
-    return LocalizerConfig(frame=FRAME, **kw)
+    return LocalizerConfig(**kw)
 
 
 @pytest.mark.parametrize(
@@ -49,9 +54,10 @@ def test_crowd_localized_and_ugvs_not_crowds(ugvs, quality):
     assert len(res.crowds) == 1, "exactly the crowd: no UGV reported as a crowd"
     c = res.crowds[0]
     assert np.hypot(c.east_m - CROWD[0, 0], c.north_m - CROWD[0, 1]) < 1e-6
-    e, n = FRAME.wgs84_to_ground(c.lat_deg, c.lon_deg)
-    assert abs(e - CROWD[0, 0]) < 1e-3 and abs(n - CROWD[0, 1]) < 1e-3
-    assert c.footprint_latlon_deg.shape == (4, 2) and np.isfinite(c.footprint_latlon_deg).all()
+    # the footprint is the blob's box on the ground, around the crowd, in east-north metres
+    fp = c.footprint_en_m
+    assert fp.shape == (4, 2) and np.isfinite(fp).all()
+    assert (fp.min(0) < CROWD[0]).all() and (fp.max(0) > CROWD[0]).all()
     assert c.quality == quality and c.radius95_m > 0
 
 
@@ -99,10 +105,9 @@ def test_ugv_position_sources(t, with_velocity, source, expect_en):
     if source is None:
         assert got is None
     else:
-        en, sigma, src = got
-        assert src == source and np.allclose(en, expect_en, atol=1e-9)
+        assert got.source == source and np.allclose(got.en_m, expect_en, atol=1e-9)
         if source == "extrapolated" and not with_velocity:
-            assert sigma >= c.max_ugv_speed_m_s * 0.2 / 2 - 1e-9
+            assert got.sigma_m >= c.max_ugv_speed_m_s * 0.2 / 2 - 1e-9
 
 
 def test_continuity_keeps_pairing_when_color_flickers():
@@ -133,7 +138,7 @@ def test_degenerate_landmarks_fail_cleanly():
 
 
 def test_empty_frame():
-    _, res = localize_step(LocalizerState(), FrameObservation(0.0, {}, np.empty((0, 2)), np.empty((0, 4))), {}, cfg())
+    _, res = localize_step(LocalizerState(), FrameObservation(0.0, Landmarks(), Blobs.empty()), {}, cfg())
     assert res.quality == FitQuality.FAILED and res.crowds == ()
 
 
@@ -149,15 +154,14 @@ def test_a_blob_labelled_as_a_ugv_is_that_ugv_even_beyond_the_gate():
     names = list(UGVS)
     tracks = {u: track_at(en) for u, en in UGVS.items()}
     obs = observation(1.0)
-    blobs = obs.blob_xy_px.copy()
+    labels = obs.landmarks.as_dict()
+    blobs = obs.blobs.xy_px.copy()
     blobs[0] += (40.0, 0.0)
-    boxes = np.column_stack([blobs - 15, blobs + 15])
-    labelled = FrameObservation(1.0, obs.landmarks_px, blobs, boxes, ("red",) + ("",) * (len(blobs) - 1))
+    labelled = frame_obs(1.0, labels, blobs, ugv=("red",) + ("",) * (len(blobs) - 1))
     _, out = localize_step(LocalizerState(), labelled, tracks, cfg(image_coordinates="color"))
     assert out.blob_of_ugv["red"] == 0
     assert [c.blob_index for c in out.crowds] == [len(names)]
-    _, out = localize_step(LocalizerState(), FrameObservation(1.0, obs.landmarks_px, blobs, boxes), tracks,
-                           cfg(image_coordinates="color"))
+    _, out = localize_step(LocalizerState(), frame_obs(1.0, labels, blobs), tracks, cfg(image_coordinates="color"))
     assert 0 in [c.blob_index for c in out.crowds]
 
 
@@ -168,11 +172,11 @@ def test_a_ugv_seen_by_color_does_not_swallow_a_crowd_whose_box_holds_it():
     ugvs["red"] = (2.5, 3.0)          # beside the crowd's centre (2, 3)
     tracks = {u: track_at(en) for u, en in ugvs.items()}
     obs = observation(1.0, ugvs=ugvs)
-    boxes = obs.blob_xyxy_px.copy()
-    boxes[-1] = np.r_[obs.blob_xy_px[-1] - 60, obs.blob_xy_px[-1] + 60]   # the crowd's box is wide
-    blobs = obs.blob_xy_px.copy()
+    boxes = obs.blobs.xyxy_px.copy()
+    boxes[-1] = np.r_[obs.blobs.xy_px[-1] - 60, obs.blobs.xy_px[-1] + 60]   # the crowd's box is wide
+    blobs = obs.blobs.xy_px.copy()
     blobs[-1] += (-30.0, 0.0)         # its centre 30 px from red's (beyond the 25 px gate)
-    labelled = FrameObservation(1.0, obs.landmarks_px, blobs, boxes, ("red",) + ("",) * (len(blobs) - 1))
+    labelled = frame_obs(1.0, obs.landmarks.as_dict(), blobs, boxes, ("red",) + ("",) * (len(blobs) - 1))
     _, out = localize_step(LocalizerState(), labelled, tracks, cfg())
     assert [c.blob_index for c in out.crowds] == [len(blobs) - 1]
 
@@ -186,23 +190,39 @@ def test_a_crowd_beside_a_labelled_ugv_is_not_gated_by_its_color():
     ugvs["red"] = (2.5, 3.0)
     tracks = {u: track_at(en) for u, en in ugvs.items()}
     obs = observation(1.0, ugvs=ugvs)
-    blobs = obs.blob_xy_px.copy()
+    blobs = obs.blobs.xy_px.copy()
     blobs[-1] = blobs[0] + (15.0, 0.0)
-    boxes = np.column_stack([blobs - 15, blobs + 15])
     labels = ("red",) + ("",) * (len(blobs) - 1)
-    _, out = localize_step(LocalizerState(), FrameObservation(1.0, obs.landmarks_px, blobs, boxes, labels), tracks, cfg())
+    _, out = localize_step(LocalizerState(), frame_obs(1.0, obs.landmarks.as_dict(), blobs, ugv=labels), tracks, cfg())
     assert [c.blob_index for c in out.crowds] == [len(blobs) - 1]
-    _, out = localize_step(LocalizerState(), FrameObservation(1.0, obs.landmarks_px, blobs, boxes), tracks, cfg())
+    _, out = localize_step(LocalizerState(), frame_obs(1.0, obs.landmarks.as_dict(), blobs), tracks, cfg())
     assert out.crowds == ()
 
 
 def test_blob_areas_reach_the_estimates_and_are_checked():
     obs = observation(1.0)
     tracks = {u: track_at(en) for u, en in UGVS.items()}
-    areas = np.arange(1.0, len(obs.blob_xy_px) + 1.0)
-    o = FrameObservation(1.0, obs.landmarks_px, obs.blob_xy_px, obs.blob_xyxy_px, (), areas)
+    areas = np.arange(1.0, len(obs.blobs) + 1.0)
+    o = frame_obs(1.0, obs.landmarks.as_dict(), obs.blobs.xy_px, obs.blobs.xyxy_px, areas=areas)
     _, out = localize_step(LocalizerState(), o, tracks, cfg())
     assert [c.area_px for c in out.crowds] == [areas[-1]]
-    with pytest.raises(ValueError):
-        localize_step(LocalizerState(), FrameObservation(1.0, obs.landmarks_px, obs.blob_xy_px, obs.blob_xyxy_px, (),
-                                                         areas[:2]), tracks, cfg())
+    with pytest.raises(ValueError):   # the blobs type refuses lists of different lengths
+        frame_obs(1.0, obs.landmarks.as_dict(), obs.blobs.xy_px, obs.blobs.xyxy_px, areas=areas[:2])
+
+
+@pytest.mark.parametrize(
+    "declared, override, expect",
+    [
+        ((0.5, 4.0, 6.0), (None, None), (4.0, 6.0)),   # motion landmarks: the detector's UGV-blob and crowd noise
+        ((0.5, 4.0, 6.0), (2.0, 3.0), (2.0, 3.0)),     # a config value, when given, wins
+    ],
+)
+def test_pixel_noise_comes_from_the_detector_unless_configured(declared, override, expect):
+    obs = observation(1.0)
+    obs = FrameObservation(obs.stamp_s, obs.landmarks, obs.blobs, *declared)
+    c = cfg(sigma_landmark_px=override[0], sigma_target_px=override[1])
+    assert c.sigmas_px(obs) == expect
+    tracks = {u: track_at(en) for u, en in UGVS.items()}
+    r = [localize_step(LocalizerState(), FrameObservation(1.0, obs.landmarks, obs.blobs, *d), tracks, cfg())[1]
+         .crowds[0].radius95_m for d in ((0.5, 1.0, 1.5), declared)]
+    assert r[1] > 2 * r[0]     # noisier detections, a wider radius

@@ -9,18 +9,16 @@ import numpy as np
 import pytest
 
 from uvteam.camera import CameraPose, PinholeCamera, project
-from uvteam.geo import LocalFrame
+from uvteam.blobs import Blobs, Landmarks
 from uvteam.localizer import FrameObservation, LocalizerConfig, LocalizerState, UgvTrack, localize_step
 
-FRAME = LocalFrame(31.4850, -111.5440, 1300.0)
 CAM = PinholeCamera(1280, 720, 78.0)
 NAMES = ["red", "green", "blue", "yellow", "magenta", "cyan"]
 
 
 def run_trials(alt_m, ring_m, n_landmarks, trials, seed):
     rng = np.random.default_rng(seed)
-    cfg = LocalizerConfig(frame=FRAME, sigma_landmark_px=1.0, sigma_target_px=2.0, image_coordinates="color",
-                          gate_px=4.0)
+    cfg = LocalizerConfig(image_coordinates="color", gate_px=4.0)
     errs, inside = [], []
     for _ in range(trials):
         crowd = rng.uniform(-3, 3, 2)
@@ -33,8 +31,10 @@ def run_trials(alt_m, ring_m, n_landmarks, trials, seed):
         c_px = project(CAM, pose, crowd[None]) + rng.normal(0, 2.0, (1, 2))
         names = NAMES[:n_landmarks]
         tracks = {u: UgvTrack(np.array([0.0, 2.0]), np.array([lm[i], lm[i]]), np.zeros(2)) for i, u in enumerate(names)}
-        obs = FrameObservation(1.0, {u: tuple(lm_px[i]) for i, u in enumerate(names)}, c_px,
-                               np.column_stack([c_px - 10, c_px + 10]))
+        # the detector declares its noise with its detections: 1 px for labels, 2 px for crowd centres
+        obs = FrameObservation(1.0, Landmarks(tuple(names), lm_px), Blobs(c_px, np.column_stack([c_px - 10, c_px + 10]),
+                                                                          np.ones(1)), sigma_color_px=1.0,
+                               sigma_crowd_blob_px=2.0)
         _, res = localize_step(LocalizerState(), obs, tracks, cfg)
         assert len(res.crowds) == 1
         c = res.crowds[0]

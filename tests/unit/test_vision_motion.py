@@ -42,7 +42,7 @@ def test_moving_camera_and_one_moving_object():
         # ground): the centre stays within half the square's size of its true centre (measured: 7-9 px),
         # never trailing by the whole 0.4 s history (4 frames, ~28 px)
         assert np.hypot(b.xy_px[0, 0] - (600 + 12 * k), b.xy_px[0, 1] - 300) < 12
-        assert b.residual_px < 0.5 and b.n_inliers > 100
+        assert b.residual_px < 0.5 and b.registration.n_inliers > 100
 
 
 def test_static_scene_from_moving_camera_gives_nothing():

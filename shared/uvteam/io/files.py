@@ -3,7 +3,12 @@
 
 from __future__ import annotations
 
-import tomllib
+import sys
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # Python 3.10
+    import tomli as tomllib
 from pathlib import Path
 
 from ..bus import BusConfig
@@ -18,9 +23,14 @@ def read_toml(path: str | Path) -> dict:
     """A TOML file as a dict, or ConfigError naming the file."""
     p = Path(path)
     try:
-        return tomllib.loads(p.read_text())
+        text = p.read_bytes().decode("utf-8")
+        return tomllib.loads(text)
     except (FileNotFoundError, IsADirectoryError):
         raise ConfigError(str(p), "<file>", "not found") from None
+    except OSError as exc:
+        raise ConfigError(str(p), "<file>", f"cannot be read: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(str(p), "<file>", f"not a text file (byte {exc.start} is not UTF-8)") from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(str(p), "<file>", f"not TOML: {exc}") from None
 

@@ -34,16 +34,25 @@ by size and velocity as functions of altitude. Time is passed in; nothing here r
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
 
+from ..blobs import Blobs
+
 MIN_VEHICLE_AREA_PX = 4.0   # a carved vehicle's blob only needs to be more than noise
 AGE_UNIT_S = 0.01           # the motion history's time step
 MIN_MASKED_CORNERS = 30     # fewer corners outside the blobs than this: take them anywhere
+MIN_FIT_POINTS = 8          # tracked corners needed to fit the camera's motion
+FORWARD_BACKWARD_PX = 1.0   # a corner tracked there and back must land within this of where it started
+CORNER_BLOCK_PX = 5         # goodFeaturesToTrack's block size
+LK_ITERATIONS, LK_EPSILON = 20, 0.03
+AFFINE_TOLERANCE_PX = 0.05  # a homography moving no frame pixel more than this from its affine part is warped affinely
+POOLED_LABEL_MIN_MERGE_PX = 8   # blobs joined over at least this many px are labelled on a 2x2 max-pooled mask
+POOLED_LABEL_MIN_SIDE_PX = 64
 
-__all__ = ["MotionConfig", "MotionBlobs", "MotionDetector", "bounds_for_altitude", "compensate"]
+__all__ = ["MotionConfig", "MotionResult", "Registration", "MotionDetector", "bounds_for_altitude", "compensate"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -100,62 +109,79 @@ def bounds_for_altitude(alt_agl_m: float, focal_px: float, *, person_m: float = 
 
 
 @dataclass(frozen=True, slots=True)
-class MotionBlobs:
-    xy_px: np.ndarray          # (N, 2) centroids of moving pixels, full-resolution image coordinates
-    xyxy_px: np.ndarray        # (N, 4) boxes
-    area_px: np.ndarray        # (N,) moving pixels (full resolution)
+class Registration:
+    """The camera's motion between two frames (step 1-2): ``H_curr_from_prev`` in the frames' own pixels
+    (None when it could not be fitted), and how well it is supported."""
+
+    H_curr_from_prev: np.ndarray | None
     n_tracked: int             # corners that survived LK and the forward-backward check
     n_inliers: int             # of those, consistent with the camera-motion model
-    residual_px: float         # RMS of the inliers' transfer error (processed pixels)
-    carved: np.ndarray = field(default_factory=lambda: np.empty(0, int))  # (N,) carve point of a vehicle's blob, else -1
-
-    def __post_init__(self) -> None:
-        if len(self.carved) != len(self.area_px):
-            object.__setattr__(self, "carved", np.full(len(self.area_px), -1, int))
+    residual_px: float         # RMS of the inliers' transfer error
 
     @staticmethod
-    def empty(n_tracked: int = 0, n_inliers: int = 0, residual_px: float = float("nan")) -> "MotionBlobs":
-        return MotionBlobs(np.empty((0, 2)), np.empty((0, 4)), np.empty(0), n_tracked, n_inliers, residual_px)
+    def failed(n_tracked: int = 0, n_inliers: int = 0) -> "Registration":
+        return Registration(None, n_tracked, n_inliers, float("nan"))
+
+
+@dataclass(frozen=True, slots=True)
+class MotionResult:
+    """One frame's moving blobs (full-resolution pixels), which of them are carved vehicles, and the
+    camera registration they rest on (residual in processed pixels)."""
+
+    blobs: Blobs
+    carved: np.ndarray         # (N,) the carve point a vehicle's blob belongs to, else -1
+    registration: Registration
+
+    @staticmethod
+    def empty(registration: Registration | None = None) -> "MotionResult":
+        return MotionResult(Blobs.empty(), np.empty(0, int), registration or Registration.failed())
 
     def __len__(self) -> int:
-        return len(self.area_px)
+        return len(self.blobs)
+
+    @property
+    def xy_px(self) -> np.ndarray:
+        return self.blobs.xy_px
+
+    @property
+    def residual_px(self) -> float:
+        return self.registration.residual_px
 
 
-def compensate(prev: np.ndarray, curr: np.ndarray, cfg: MotionConfig, mask: np.ndarray | None = None
-               ) -> tuple[np.ndarray | None, int, int, float]:
-    """Camera motion prev -> curr as a 3x3 matrix (None when it cannot be fitted), tracked, inliers, rms.
-    ``mask`` (uint8, prev's shape): corners only where it is non-zero, unless that leaves fewer than
-    ``MIN_MASKED_CORNERS``."""
+def compensate(prev: np.ndarray, curr: np.ndarray, cfg: MotionConfig, mask: np.ndarray | None = None) -> Registration:
+    """Camera motion prev -> curr (steps 1-2). ``mask`` (uint8, prev's shape): corners only where it is
+    non-zero, unless that leaves fewer than ``MIN_MASKED_CORNERS``."""
     p0 = None
     if mask is not None:
         p0 = cv2.goodFeaturesToTrack(prev, cfg.max_corners, cfg.corner_quality, cfg.corner_min_distance_px,
-                                     mask=mask, blockSize=5)
+                                     mask=mask, blockSize=CORNER_BLOCK_PX)
         if p0 is not None and len(p0) < MIN_MASKED_CORNERS:
             p0 = None
     if p0 is None:
-        p0 = cv2.goodFeaturesToTrack(prev, cfg.max_corners, cfg.corner_quality, cfg.corner_min_distance_px, blockSize=5)
-    if p0 is None or len(p0) < 8:
-        return None, 0, 0, float("nan")
+        p0 = cv2.goodFeaturesToTrack(prev, cfg.max_corners, cfg.corner_quality, cfg.corner_min_distance_px,
+                                     blockSize=CORNER_BLOCK_PX)
+    if p0 is None or len(p0) < MIN_FIT_POINTS:
+        return Registration.failed()
     lk = dict(winSize=(cfg.lk_window_px, cfg.lk_window_px), maxLevel=cfg.lk_levels,
-              criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 20, 0.03))
+              criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, LK_ITERATIONS, LK_EPSILON))
     p1, st, _ = cv2.calcOpticalFlowPyrLK(prev, curr, p0, None, **lk)
     p0r, st2, _ = cv2.calcOpticalFlowPyrLK(curr, prev, p1, None, **lk)
     fb = np.sqrt(((p0 - p0r) ** 2).sum(-1)).ravel()
-    ok = (st.ravel() == 1) & (st2.ravel() == 1) & (fb < 1.0)
+    ok = (st.ravel() == 1) & (st2.ravel() == 1) & (fb < FORWARD_BACKWARD_PX)
     a, b = p0[ok].reshape(-1, 2), p1[ok].reshape(-1, 2)
-    if len(a) < 8:
-        return None, len(a), 0, float("nan")
+    if len(a) < MIN_FIT_POINTS:
+        return Registration.failed(len(a))
     if cfg.model == "homography":
         M, inl = cv2.findHomography(a, b, cv2.RANSAC, cfg.ransac_px)
     else:
         A, inl = cv2.estimateAffinePartial2D(a, b, method=cv2.RANSAC, ransacReprojThreshold=cfg.ransac_px)
         M = None if A is None else np.vstack([A, [0.0, 0.0, 1.0]])
     if M is None or inl is None:
-        return None, len(a), 0, float("nan")
+        return Registration.failed(len(a))
     inl = inl.ravel().astype(bool)
     q = cv2.perspectiveTransform(a[inl].reshape(-1, 1, 2), M).reshape(-1, 2)
     rms = float(np.sqrt(((q - b[inl]) ** 2).sum(1).mean())) if inl.any() else float("nan")
-    return M, len(a), int(inl.sum()), rms
+    return Registration(M, len(a), int(inl.sum()), rms)
 
 
 def _warper(M: np.ndarray, w: int, h: int):
@@ -166,7 +192,7 @@ def _warper(M: np.ndarray, w: int, h: int):
     hom = np.column_stack([corners, np.ones(4)])
     p = hom @ M.T
     exact = p[:, :2] / p[:, 2:3]
-    if np.abs(exact - hom @ A.T).max() < 0.05:
+    if np.abs(exact - hom @ A.T).max() < AFFINE_TOLERANCE_PX:
         return lambda img, interp, border: cv2.warpAffine(img, A, (w, h), flags=interp, borderMode=cv2.BORDER_CONSTANT,
                                                           borderValue=border)
     return lambda img, interp, border: cv2.warpPerspective(img, M, (w, h), flags=interp, borderMode=cv2.BORDER_CONSTANT,
@@ -200,7 +226,7 @@ class MotionDetector:
         self._prev = self._prev_c = self._stamp_s = self._age = self._busy = None
 
     def update(self, frame: np.ndarray, stamp_s: float, carve_xy_px: np.ndarray | None = None,
-               carve_radius_px: float = 0.0) -> MotionBlobs:
+               carve_radius_px: float = 0.0) -> MotionResult:
         """Blobs moving in ``frame``. ``carve_xy_px`` (full-resolution points, e.g. color-detected
         vehicles) split a blob that holds one of them and is more than the carved disc: the moving
         pixels within ``carve_radius_px`` of the point become a blob of their own, the rest another, so
@@ -208,14 +234,12 @@ class MotionDetector:
         left is a crowd only if one group of it is crowd-sized on its own (not the trails of two vehicles
         side by side). Such a vehicle's blob is centred on its point, since its pixels are mixed with the
         crowd's. A blob that is a vehicle's (carved, or holding its point with no more than a vehicle's
-        worth) says which point in ``MotionBlobs.carved``, and needs no crowd-sized area."""
-        cfg = self.cfg
-        gray = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame
-        s = cfg.process_scale
-        curr = cv2.resize(gray, None, fx=s, fy=s, interpolation=cv2.INTER_AREA) if s != 1.0 else gray
-        # camera motion is global: it is fitted on a copy of at most compensate_max_scale
-        c = min(1.0, cfg.compensate_max_scale / s)
-        curr_c = cv2.resize(curr, None, fx=c, fy=c, interpolation=cv2.INTER_AREA) if c < 1.0 else curr
+        worth) says which point in ``MotionResult.carved``, and needs no crowd-sized area.
+
+        The phases are the module docstring's steps: :meth:`_scaled` (the processed copies),
+        :meth:`_register` (1-2), :meth:`_moving` (3), :meth:`_history` (4), :meth:`_components` (5),
+        :meth:`_split` (6) and :meth:`_measure` (the blobs of each component)."""
+        curr, curr_c = self._scaled(frame)
         prev, self._prev = self._prev, curr
         prev_c, self._prev_c = self._prev_c, curr_c
         dt_s = stamp_s - self._stamp_s if self._stamp_s is not None else 0.0
@@ -223,21 +247,63 @@ class MotionDetector:
         busy, self._busy = self._busy, None
         if prev is None or prev.shape != curr.shape:
             self._age = np.full(curr.shape, 255, np.uint8)
-            return MotionBlobs.empty()
+            return MotionResult.empty()
+        reg = self._register(prev_c, curr_c, busy)
+        if reg.H_curr_from_prev is None:
+            self._age[:] = 255  # lost registration: the history is no longer aligned
+            return MotionResult.empty(reg)
+        h, w = curr.shape
+        warp = _warper(reg.H_curr_from_prev, w, h)
+        moving = self._moving(prev, curr, reg.H_curr_from_prev, warp)
+        recent, moving = self._history(moving, warp, dt_s)
+        joined = cv2.morphologyEx(recent, cv2.MORPH_CLOSE, self._k_close)
+        # the next frame takes no corners on what moves (a corner half a kernel from a blob is on it)
+        self._busy = cv2.dilate(joined, self._k_close)
+        s = self.cfg.process_scale
+        carve = np.empty((0, 2)) if carve_xy_px is None else (np.asarray(carve_xy_px, float).reshape(-1, 2) + 0.5) * s - 0.5
+        r2 = (carve_radius_px * s) ** 2
+        comps = [part for x, y, comp in self._components(joined)
+                 for part in self._split(comp, recent[y:y + comp.shape[0], x:x + comp.shape[1]], x, y, carve, r2, 1.0 / s)]
+        xy, boxes, areas, carved = [], [], [], []
+        for x, y, bw, bh, comp in comps:
+            for row in self._measure(comp, recent[y:y + bh, x:x + bw], moving[y:y + bh, x:x + bw], x, y, carve, r2):
+                xy.append(row[0])
+                boxes.append(row[1])
+                areas.append(row[2])
+                carved.append(row[3])
+        blobs = Blobs(np.array(xy, float).reshape(-1, 2), np.array(boxes, float).reshape(-1, 4), np.array(areas, float))
+        return MotionResult(blobs, np.array(carved, int), reg)
+
+    def _scaled(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Grey at ``process_scale`` (the processed pixels), and the copy the camera motion is fitted on."""
+        cfg = self.cfg
+        gray = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame
+        s = cfg.process_scale
+        curr = cv2.resize(gray, None, fx=s, fy=s, interpolation=cv2.INTER_AREA) if s != 1.0 else gray
+        c = min(1.0, cfg.compensate_max_scale / s)   # camera motion is global: fitted on a copy of at most that scale
+        curr_c = cv2.resize(curr, None, fx=c, fy=c, interpolation=cv2.INTER_AREA) if c < 1.0 else curr
+        return curr, curr_c
+
+    def _register(self, prev_c: np.ndarray, curr_c: np.ndarray, busy: np.ndarray | None) -> Registration:
+        """Steps 1-2: the camera motion, fitted off the previous frame's blobs, in processed pixels."""
         free = None
         if busy is not None:
             free = cv2.bitwise_not(busy)
             if free.shape != prev_c.shape:
                 free = cv2.resize(free, prev_c.shape[::-1], interpolation=cv2.INTER_NEAREST)
-        M, n_tr, n_in, rms = compensate(prev_c, curr_c, cfg, free)
-        if M is None:
-            self._age[:] = 255  # lost registration: the history is no longer aligned
-            return MotionBlobs.empty(n_tr, n_in, rms)
-        if c < 1.0:  # back to processing pixels (pixel centres: x_c = (x + 0.5) c - 0.5)
-            S = np.array([[c, 0.0, 0.5 * c - 0.5], [0.0, c, 0.5 * c - 0.5], [0.0, 0.0, 1.0]])
-            M = np.linalg.inv(S) @ M @ S
+        reg = compensate(prev_c, curr_c, self.cfg, free)
+        c = min(1.0, self.cfg.compensate_max_scale / self.cfg.process_scale)
+        if reg.H_curr_from_prev is None or c >= 1.0:
+            return reg
+        # back to processing pixels (pixel centres: x_c = (x + 0.5) c - 0.5)
+        S = np.array([[c, 0.0, 0.5 * c - 0.5], [0.0, c, 0.5 * c - 0.5], [0.0, 0.0, 1.0]])
+        return replace(reg, H_curr_from_prev=np.linalg.inv(S) @ reg.H_curr_from_prev @ S)
+
+    def _moving(self, prev: np.ndarray, curr: np.ndarray, M: np.ndarray, warp) -> np.ndarray:
+        """Step 3: the pixels that changed after compensation, where the previous frame covers this one,
+        with speckle removed (``speckle``) and the frame's own edge cleared."""
+        cfg = self.cfg
         h, w = curr.shape
-        warp = _warper(M, w, h)
         warped = warp(prev, cv2.INTER_LINEAR, 0)
         # where the previous frame covers this one: its corners warped, minus a border
         corners = cv2.perspectiveTransform(np.float32([[[0, 0]], [[w - 1, 0]], [[w - 1, h - 1]], [[0, h - 1]]]), M)
@@ -259,8 +325,13 @@ class MotionDetector:
         moving[-b:] = 0
         moving[:, :b] = 0
         moving[:, -b:] = 0
-        # motion history, kept registered with the camera: each pixel's time since it last moved, in
-        # AGE_UNIT_S steps (uint8, saturating at "long ago"), warped along with the camera
+        return moving
+
+    def _history(self, moving: np.ndarray, warp, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """Step 4: the motion history, kept registered with the camera: each pixel's time since it last
+        moved, in AGE_UNIT_S steps (uint8, saturating at "long ago"), warped along with the camera.
+        Returns the pixels that moved within ``history_s`` and this frame's moving pixels."""
+        cfg = self.cfg
         age = warp(self._age, cv2.INTER_NEAREST, 255)
         age = cv2.add(age, int(min(255, max(0, round(dt_s / AGE_UNIT_S)))))
         age[moving > 0] = 0
@@ -269,10 +340,12 @@ class MotionDetector:
             recent = cv2.morphologyEx(recent, cv2.MORPH_OPEN, self._k_open)
             moving &= recent
         self._age = age
-        joined = cv2.morphologyEx(recent, cv2.MORPH_CLOSE, self._k_close)
-        # the next frame takes no corners on what moves (a corner half a kernel from a blob is on it)
-        self._busy = cv2.dilate(joined, self._k_close)
-        if cfg.merge_px >= 8 and h >= 64 and w >= 64:
+        return recent, moving
+
+    def _components(self, joined: np.ndarray) -> list[tuple[int, int, np.ndarray]]:
+        """Step 5: the connected components of the joined mask, each as (x, y, its mask in its box)."""
+        h, w = joined.shape
+        if self.cfg.merge_px >= POOLED_LABEL_MIN_MERGE_PX and min(h, w) >= POOLED_LABEL_MIN_SIDE_PX:
             # blobs joined over >= 8 px do not need full resolution to be told apart: label a 2x2
             # max-pooled copy (4x fewer pixels), then carry the labels back to the full mask
             h2, w2 = h // 2 * 2, w // 2 * 2
@@ -285,57 +358,58 @@ class MotionDetector:
             stats = stats * 2    # boxes in full-resolution pixels (each small pixel is 2x2)
         else:
             n, labels, stats, _ = cv2.connectedComponentsWithStats(joined, connectivity=8)
-        xy, boxes, areas, carved = [], [], [], []
-        inv = 1.0 / s
-        carve = np.empty((0, 2)) if carve_xy_px is None else (np.asarray(carve_xy_px, float).reshape(-1, 2) + 0.5) * s - 0.5
-        r2 = (carve_radius_px * s) ** 2
-        comps = []
+        out = []
         for i in range(1, n):
             x, y, bw, bh, _ = stats[i]
-            comp = labels[y:y + bh, x:x + bw] == i
-            comps.extend(self._split(comp, recent[y:y + bh, x:x + bw], x, y, carve, r2, inv))
-        for x, y, bw, bh, comp in comps:
-            m = comp & (recent[y:y + bh, x:x + bw] > 0)       # the pixels that moved lately
-            now = comp & (moving[y:y + bh, x:x + bw] > 0)
-            parts = [(m, now, cfg.min_area_px, -1)]
-            centre_of: dict[int, tuple[float, float]] = {}
-            inside = [ci for ci, (cx, cy) in enumerate(carve) if x <= cx < x + bw and y <= cy < y + bh] if r2 > 0 else []
-            if inside:
-                # each pixel within the radius of a vehicle's point is that (nearest) vehicle's; what is
-                # left is a crowd only if one group of it is crowd-sized, else the vehicles' trails
-                gy, gx = np.mgrid[y:y + bh, x:x + bw]
-                d2 = np.stack([(gx - carve[ci, 0]) ** 2 + (gy - carve[ci, 1]) ** 2 for ci in inside])
-                nearest = d2.argmin(0)
-                near = d2.min(0) <= r2
-                parts = []
-                shared = len(inside) > 1
-                if self._holds_crowd(m & ~near, inv):
-                    parts.append((m & ~near, now & ~near, cfg.min_area_px, -1))
-                    shared = True
-                for k, ci in enumerate(inside):
-                    own = near & (nearest == k)
-                    parts.append((m & own, now & own, MIN_VEHICLE_AREA_PX, ci))
-                    if shared:   # cut out of a crowd or a neighbour: its pixels are mixed, its point is not
-                        centre_of[len(parts) - 1] = (carve[ci, 0] - x, carve[ci, 1] - y)
-            for pi, (pm, pnow, min_area, ci) in enumerate(parts):
-                area = float(pm.sum()) * inv * inv
-                if not min_area <= area <= cfg.max_area_px:
-                    continue
-                # The centre comes from this frame's moving pixels: the history's centroid would trail
-                # the crowd by half the history (0.6 m at 3 m/s, 0.4 s); this lags by half a frame at most.
-                if pi in centre_of:
-                    cx, cy = centre_of[pi]
-                else:
-                    ys, xs = np.nonzero(pnow if pnow.any() else pm)
-                    cx, cy = xs.mean(), ys.mean()
-                bys, bxs = np.nonzero(pm)
-                xy.append([(cx + x + 0.5) * inv - 0.5, (cy + y + 0.5) * inv - 0.5])
-                boxes.append([(bxs.min() + x) * inv, (bys.min() + y) * inv, (bxs.max() + x + 1) * inv,
-                              (bys.max() + y + 1) * inv])
-                areas.append(area)
-                carved.append(ci)
-        return MotionBlobs(np.array(xy, float).reshape(-1, 2), np.array(boxes, float).reshape(-1, 4),
-                           np.array(areas, float), n_tr, n_in, rms, np.array(carved, int))
+            out.append((int(x), int(y), labels[y:y + bh, x:x + bw] == i))
+        return out
+
+    def _measure(self, comp: np.ndarray, recent: np.ndarray, moving: np.ndarray, x: int, y: int,
+                 carve: np.ndarray, r2: float) -> list[tuple[list, list, float, int]]:
+        """The blobs of one (split) component at (x, y): (centre, box, area, carve point or -1) each, in
+        full-resolution pixels. A component holding carve points is cut around them (see :meth:`update`)."""
+        cfg = self.cfg
+        inv = 1.0 / cfg.process_scale
+        bh, bw = comp.shape
+        m = comp & (recent > 0)       # the pixels that moved lately
+        now = comp & (moving > 0)
+        parts = [(m, now, cfg.min_area_px, -1)]
+        centre_of: dict[int, tuple[float, float]] = {}
+        inside = [ci for ci, (cx, cy) in enumerate(carve) if x <= cx < x + bw and y <= cy < y + bh] if r2 > 0 else []
+        if inside:
+            # each pixel within the radius of a vehicle's point is that (nearest) vehicle's; what is
+            # left is a crowd only if one group of it is crowd-sized, else the vehicles' trails
+            gy, gx = np.mgrid[y:y + bh, x:x + bw]
+            d2 = np.stack([(gx - carve[ci, 0]) ** 2 + (gy - carve[ci, 1]) ** 2 for ci in inside])
+            nearest = d2.argmin(0)
+            near = d2.min(0) <= r2
+            parts = []
+            shared = len(inside) > 1
+            if self._holds_crowd(m & ~near, inv):
+                parts.append((m & ~near, now & ~near, cfg.min_area_px, -1))
+                shared = True
+            for k, ci in enumerate(inside):
+                own = near & (nearest == k)
+                parts.append((m & own, now & own, MIN_VEHICLE_AREA_PX, ci))
+                if shared:   # cut out of a crowd or a neighbour: its pixels are mixed, its point is not
+                    centre_of[len(parts) - 1] = (carve[ci, 0] - x, carve[ci, 1] - y)
+        out = []
+        for pi, (pm, pnow, min_area, ci) in enumerate(parts):
+            area = float(pm.sum()) * inv * inv
+            if not min_area <= area <= cfg.max_area_px:
+                continue
+            # The centre comes from this frame's moving pixels: the history's centroid would trail
+            # the crowd by half the history (0.6 m at 3 m/s, 0.4 s); this lags by half a frame at most.
+            if pi in centre_of:
+                cx, cy = centre_of[pi]
+            else:
+                ys, xs = np.nonzero(pnow if pnow.any() else pm)
+                cx, cy = xs.mean(), ys.mean()
+            bys, bxs = np.nonzero(pm)
+            out.append(([(cx + x + 0.5) * inv - 0.5, (cy + y + 0.5) * inv - 0.5],
+                        [(bxs.min() + x) * inv, (bys.min() + y) * inv, (bxs.max() + x + 1) * inv, (bys.max() + y + 1) * inv],
+                        area, ci))
+        return out
 
     def _holds_crowd(self, rest: np.ndarray, inv: float) -> bool:
         """Whether what is left of a blob once its vehicles are carved out is a crowd: one group of it,

@@ -17,11 +17,17 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..blobs import Blobs, Landmarks
 from .landmarks import LandmarkConfig, detect_landmarks
-from .motion import MotionBlobs, MotionConfig, MotionDetector, bounds_for_altitude
+from .motion import MotionConfig, MotionDetector, Registration, bounds_for_altitude
 
 __all__ = ["UavVisionConfig", "UavVision", "UavFrameResult", "landmark_config"]
 
+FULL_RES_BELOW_PERSON_PX = 3.0   # process at full resolution when a person would be smaller than this
+RECONFIGURE_ALTITUDE_CHANGE = 0.15  # rebuild the detector when the altitude changes by more than this fraction
+LABEL_AREA_RANGE = (0.25, 4.0)   # a roof label's blob is this fraction to multiple of the label's area
+LABEL_AREA_SLACK_PX = 25.0       # ... plus this much (blur and edge pixels of a small label)
+MIN_LABEL_AREA_PX = 3.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,16 +56,18 @@ class UavVisionConfig:
 @dataclass(frozen=True, slots=True)
 class UavFrameResult:
     stamp_s: float
-    landmarks_px: dict[str, tuple[float, float]]     # color -> centre
-    blobs: MotionBlobs
-    blob_color: tuple[str, ...]                      # per blob: the color of the UGV it is, or ""
+    landmarks: Landmarks          # by roof color
+    blobs: Blobs                  # ``ugv``: the roof color of the vehicle a blob is, or ""
+    registration: Registration    # the camera motion the blobs rest on
 
 
 def landmark_config(cfg: UavVisionConfig, alt_agl_m: float) -> LandmarkConfig:
     """Color-blob area bounds for a roof label of ``label_side_m`` seen from this altitude: a quarter to
     four times its area, so a walker in a shirt of a label's color (a tenth of it) is not a landmark."""
     label_px2 = (cfg.label_side_m * cfg.focal_px / alt_agl_m) ** 2
-    return replace(cfg.landmarks, min_area_px=max(3.0, 0.25 * label_px2), max_area_px=4.0 * label_px2 + 25.0)
+    lo, hi = LABEL_AREA_RANGE
+    return replace(cfg.landmarks, min_area_px=max(MIN_LABEL_AREA_PX, lo * label_px2),
+                   max_area_px=hi * label_px2 + LABEL_AREA_SLACK_PX)
 
 
 class UavVision:
@@ -72,7 +80,8 @@ class UavVision:
     def _configure(self, alt_agl_m: float) -> None:
         cfg = self.cfg
         person_px = cfg.person_m * cfg.focal_px / alt_agl_m
-        base = replace(cfg.motion, process_scale=1.0 if person_px * cfg.motion.process_scale < 3.0 else cfg.motion.process_scale)
+        full = person_px * cfg.motion.process_scale < FULL_RES_BELOW_PERSON_PX
+        base = replace(cfg.motion, process_scale=1.0 if full else cfg.motion.process_scale)
         mc = bounds_for_altitude(alt_agl_m, cfg.focal_px, person_m=cfg.person_m, spacing_m=cfg.crowd_spacing_m,
                                  gap_m=cfg.crowd_gap_m, crowd_max_m=cfg.crowd_max_m, base=base)
         mc = replace(mc, min_area_px=max(mc.min_area_px, cfg.min_crowd_m2 * (cfg.focal_px / alt_agl_m) ** 2))
@@ -87,10 +96,10 @@ class UavVision:
     def update(self, frame_bgr: np.ndarray, stamp_s: float, alt_agl_m: float) -> UavFrameResult:
         if not (np.isfinite(alt_agl_m) and alt_agl_m > 1.0):
             raise ValueError(f"alt_agl_m must be a finite height above 1 m, got {alt_agl_m}")
-        if self._alt_m is None or abs(alt_agl_m - self._alt_m) > 0.15 * self._alt_m:
+        if self._alt_m is None or abs(alt_agl_m - self._alt_m) > RECONFIGURE_ALTITUDE_CHANGE * self._alt_m:
             self._configure(alt_agl_m)
-        lms = detect_landmarks(frame_bgr, self._lm_cfg, self.cfg.colors)
-        names = list(lms)
-        carve = np.array([lms[c] for c in names], float).reshape(-1, 2)
-        blobs = self._motion.update(frame_bgr, stamp_s, carve, self.cfg.vehicle_radius_m * self.cfg.focal_px / alt_agl_m)
-        return UavFrameResult(stamp_s, lms, blobs, tuple(names[c] if c >= 0 else "" for c in blobs.carved))
+        lms = Landmarks.from_dict(detect_landmarks(frame_bgr, self._lm_cfg, self.cfg.colors))
+        motion = self._motion.update(frame_bgr, stamp_s, lms.xy_px, self.cfg.vehicle_radius_m * self.cfg.focal_px / alt_agl_m)
+        b = motion.blobs
+        blobs = Blobs(b.xy_px, b.xyxy_px, b.area_px, tuple(lms.ugv[c] if c >= 0 else "" for c in motion.carved))
+        return UavFrameResult(stamp_s, lms, blobs, motion.registration)

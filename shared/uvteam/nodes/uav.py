@@ -1,0 +1,155 @@
+"""The UAV service's logic: its autopilot -> its fix; camera frames -> detector -> detections.
+
+Detectors (``[uav].detector``, :data:`uvteam.vocab.DETECTORS`):
+- "pixels": frames (the shell's camera, file or stream, or the ``.../frame`` key the simulator feeds)
+  through :class:`uvteam.vision.uav.UavVision` (roof labels + motion blobs), sized by the autopilot's
+  height above ground. Frames are processed newest first: one that arrives while the previous is still
+  in work replaces any waiting one (``dropped``). The detections declare the pipeline's noise at this
+  camera and height (:func:`uvteam.detector_noise.pixel_pipeline_noise`).
+- "sim-sensor": the simulator's sensor-model detections (``.../sensor``), relabelled and passed on.
+Roof colors are mapped to UGV ids with ``[uav].colors``; colors not in the table are not our team's.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+
+from .. import keys
+from ..autopilot import Autopilot, fix_from_state
+from ..bus import Bus, RateLimitedLog
+from ..camera import PinholeCamera
+from ..config import VehicleConfig
+from ..detector_noise import pixel_pipeline_noise
+from ..frames import FrameError, frame_pixels
+from ..messages import Detections, Frame
+from ..service import LatestSlot, StopFlag
+from ..vision.uav import UavVision, UavVisionConfig
+from . import Counts, sender_ok
+
+__all__ = ["UavNode", "MIN_ALT_AGL_M"]
+
+log = logging.getLogger("uvteam.uav")
+MIN_ALT_AGL_M = 1.0        # below this the autopilot's height above ground is not one to size blobs by
+
+
+class UavNode:
+    service = "uav"
+
+    def __init__(self, cfg: VehicleConfig, bus: Bus, autopilot: Autopilot, clock: Callable[[], float] = time.time) -> None:
+        self.cfg, self.bus, self.autopilot, self.clock = cfg, bus, autopilot, clock
+        self.u = cfg.uav
+        self.frames = LatestSlot()
+        self.vision: UavVision | None = None
+        self.size: tuple[int, int] | None = None
+        self.last_state_stamp = 0.0
+        self.det_key = keys.key(cfg.team, cfg.id, "detections")
+        self.counts = Counts("frames", "processed", "no_altitude", "bad_frames", "fixes_published")
+        self.vision_ms: deque[float] = deque(maxlen=500)
+        self._warn = RateLimitedLog(log)
+
+    def start(self) -> None:
+        if self.u.detector == "sim-sensor":
+            self.bus.subscribe(keys.key(self.cfg.team, self.cfg.id, "sensor"), Detections, self.on_sensor)
+        elif self.u.camera == "zenoh":
+            self.bus.subscribe(keys.key(self.cfg.team, self.cfg.id, "frame"), Frame, self.on_frame)
+
+    # --- inputs ----------------------------------------------------------------------------------------
+    def on_sensor(self, key: str, det: Detections) -> None:
+        """The sensor model's detections (by roof color) -> this UAV's detections (by UGV id)."""
+        if not sender_ok(key, det.vehicle, self.cfg.id):
+            self.bus.reject(key, f"sensor detections for {det.vehicle} under another vehicle's key")
+            return
+        self.counts.add("frames")
+        self.bus.publish(self.det_key, replace(det, vehicle=self.cfg.id, landmarks=det.landmarks.relabel(self.u.colors),
+                                               blobs=det.blobs.relabel(self.u.colors)))
+        self.counts.add("processed")
+
+    def on_frame(self, key: str, fr: Frame) -> None:
+        if not sender_ok(key, fr.vehicle, self.cfg.id):
+            self.bus.reject(key, f"a frame for {fr.vehicle} under another vehicle's key")
+            return
+        self.put_frame(fr.stamp_s, fr.frame_seq, fr)
+
+    def put_frame(self, stamp_s: float, seq: int, frame) -> None:
+        """A frame (an image, or a :class:`Frame` message still encoded) for the vision worker."""
+        self.counts.add("frames")
+        self.frames.put((stamp_s, seq, frame))
+
+    # --- phases ---------------------------------------------------------------------------------------
+    def publish_fix(self) -> None:
+        st = self.autopilot.state()
+        if st is None or st.stamp_s <= self.last_state_stamp:
+            return
+        self.last_state_stamp = st.stamp_s
+        self.bus.publish(keys.key(self.cfg.team, self.cfg.id, "fix"), fix_from_state(self.cfg.id, st))
+        self.counts.add("fixes_published")
+
+    def process_frame(self, stamp_s: float, seq: int, img: np.ndarray) -> Detections | None:
+        """One image through the vision pipeline at the autopilot's height above ground -> detections."""
+        st = self.autopilot.state()
+        if st is None or not (math.isfinite(st.alt_agl_m) and st.alt_agl_m > MIN_ALT_AGL_M):
+            self.counts.add("no_altitude")
+            self._warn.warn("altitude", "frame %d not processed: no height above ground from the autopilot yet", seq)
+            return None
+        h, w = img.shape[:2]
+        if (w, h) != self.size:   # the focal length in pixels follows the frame size
+            self.size = (w, h)
+            self.vision = UavVision(UavVisionConfig(focal_px=PinholeCamera(w, h, self.u.hfov_deg).focal_px,
+                                                    colors=tuple(self.u.colors), label_side_m=self.u.label_side_m))
+        t0 = time.perf_counter()
+        r = self.vision.update(img, stamp_s, st.alt_agl_m)
+        self.vision_ms.append((time.perf_counter() - t0) * 1e3)
+        noise = pixel_pipeline_noise(st.alt_agl_m, self.vision.cfg.focal_px)
+        det = Detections(self.cfg.id, stamp_s, seq, w, h, st.alt_agl_m, self.vision.cfg.focal_px,
+                         r.landmarks.relabel(self.u.colors), r.blobs.relabel(self.u.colors),
+                         noise.color_px, noise.ugv_blob_px, noise.crowd_blob_px)
+        self.bus.publish(self.det_key, det)
+        self.counts.add("processed")
+        return det
+
+    def vision_step(self, timeout_s: float) -> Detections | None:
+        item = self.frames.take(timeout_s)
+        if item is None:
+            return None
+        stamp, seq, payload = item
+        try:
+            img = frame_pixels(payload) if isinstance(payload, Frame) else payload
+        except FrameError as exc:
+            self.counts.add("bad_frames")
+            self._warn.warn("frame", "frame %d dropped: %s", seq, exc)
+            return None
+        return self.process_frame(stamp, seq, img)
+
+    # --- the service loop's interface ---------------------------------------------------------------
+    def step(self, timeout_s: float) -> None:
+        self.publish_fix()
+        if timeout_s > 0:
+            time.sleep(timeout_s)
+
+    def workers(self) -> list[tuple[str, Callable[[StopFlag], None]]]:
+        if self.u.detector != "pixels":
+            return []
+
+        def vision(stop: StopFlag) -> None:
+            while not stop.is_set():
+                self.vision_step(0.2)
+        return [("vision", vision)]
+
+    def metrics(self) -> dict[str, float]:
+        out = {**self.counts.as_dict(), "dropped": float(self.frames.dropped)}
+        if self.vision_ms:
+            out["vision_ms_p50"] = float(np.median(self.vision_ms))
+        return out
+
+    def link_state(self) -> str:
+        return self.autopilot.link_state
+
+    def note(self) -> str:
+        return f"detector {self.u.detector}, camera {self.u.camera if self.u.detector == 'pixels' else '-'}"
