@@ -9,8 +9,8 @@ GPS_RAW_INT and ATTITUDE; it serves the mission protocol both ways:
   MISSION_ACK(ACCEPTED), and the new mission replaces the old one (``on_mission`` is called).
 
 Only messages addressed to this system (target_system) are served. With ``signing_key`` it signs what it
-sends (MAVLink 2 signing, link id 0) and ignores anything not signed with that key, as an autopilot with
-signing enabled does.
+sends (MAVLink 2 signing, link id 0) and ignores anything not validly signed with that key, as an
+autopilot with signing enabled does.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import time
 from typing import Callable
 
 from uvteam.autopilot import MissionItem, mavlink2
-from uvteam.io.mavlink import DatagramParser
+from uvteam.io.mavlink import DatagramParser, signing_timestamp
 
 __all__ = ["SimAutopilot"]
 
@@ -44,13 +44,12 @@ class SimAutopilot:
         self.sock.bind(("127.0.0.1", 0))
         self.sock.settimeout(0.05)
         self.mav = mavlink2.MAVLink(self, system_id, mavlink2.MAV_COMP_ID_AUTOPILOT1)
-        self.parser = DatagramParser(mavlink2.MAVLink(None))
-        if signing_key is not None:   # sign what it sends, and accept only what is signed with the key
+        self.parser = DatagramParser(signing_key)   # with a key: only validly signed packets come out
+        self.signing_key = signing_key
+        if signing_key is not None:
             self.mav.signing.secret_key = signing_key
             self.mav.signing.sign_outgoing = True
-            self.mav.signing.timestamp = int((time.time() - 1420070400) * 1e5)
-            self.parser.mav.signing.secret_key = signing_key
-            self.parser.mav.signing.allow_unsigned_callback = None
+            self.mav.signing.timestamp = signing_timestamp()
         self.mission: list[MissionItem] = []
         self._upload: dict | None = None
         self._lock = threading.Lock()
@@ -70,6 +69,8 @@ class SimAutopilot:
 
     def _send(self, msg) -> None:
         with self._lock:
+            if self.signing_key is not None:
+                self.mav.signing.timestamp = max(self.mav.signing.timestamp, signing_timestamp())
             self.mav.send(msg)
 
     def start(self) -> "SimAutopilot":
@@ -90,14 +91,15 @@ class SimAutopilot:
     # --- telemetry ---------------------------------------------------------------------------------
     def send_position(self, capture_unix_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,
                       alt_rel_m: float, heading_deg: float | None, v_east_m_s: float, v_north_m_s: float,
-                      h_acc_m: float, roll_deg: float = 0.0, pitch_deg: float = 0.0) -> None:
+                      h_acc_m: float, roll_deg: float = 0.0, pitch_deg: float = 0.0,
+                      fix_type: int = mavlink2.GPS_FIX_TYPE_3D_FIX) -> None:
         tb = self.boot_ms(capture_unix_s)
         hdg = 65535 if heading_deg is None else int(round(heading_deg * 100)) % 36000
         self._send(mavlink2.MAVLink_global_position_int_message(
             tb, int(round(lat_deg * 1e7)), int(round(lon_deg * 1e7)), int(round(alt_amsl_m * 1000)),
             int(round(alt_rel_m * 1000)), int(round(v_north_m_s * 100)), int(round(v_east_m_s * 100)), 0, hdg))
         self._send(mavlink2.MAVLink_gps_raw_int_message(
-            tb * 1000, 3, int(round(lat_deg * 1e7)), int(round(lon_deg * 1e7)), int(round(alt_amsl_m * 1000)),
+            tb * 1000, fix_type, int(round(lat_deg * 1e7)), int(round(lon_deg * 1e7)), int(round(alt_amsl_m * 1000)),
             80, 120, int(round(math.hypot(v_east_m_s, v_north_m_s) * 100)), hdg if hdg != 65535 else 65535, 12,
             0, max(int(round(h_acc_m * 1000)), 1), 2000, 50, 0, 0))
         yaw = math.radians(heading_deg if heading_deg is not None else 0.0)

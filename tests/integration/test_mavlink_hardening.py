@@ -1,0 +1,179 @@
+"""The autopilot link against strangers, noise, keys, and GNSS fixes it must not vouch for.
+
+Every test here talks over real sockets on loopback (or a pty) to a SimAutopilot or a raw pymavlink peer.
+"""
+
+import json
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from uvteam.autopilot import MissionItem, fix_from_state, mavlink2
+from uvteam.io.mavlink import AutopilotLink
+from uvteam_sim.autopilot import SimAutopilot
+
+KEY = bytes(range(32))
+HERE = Path(__file__).resolve().parent
+
+
+def wait_for(cond, timeout=3.0):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if cond():
+            return True
+        time.sleep(0.01)
+    return False
+
+
+def packer(sysid, compid=1, key=None):
+    mav = mavlink2.MAVLink(None, sysid, compid)
+    if key is not None:
+        mav.signing.secret_key, mav.signing.sign_outgoing = key, True
+        mav.signing.timestamp = int((time.time() - 1420070400) * 1e5)
+
+    def pack(msg):
+        buf = msg.pack(mav)
+        mav.seq = (mav.seq + 1) % 256
+        return buf
+    return pack
+
+
+def heartbeat():
+    return mavlink2.MAVLink_heartbeat_message(mavlink2.MAV_TYPE_GROUND_ROVER, mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                                              0, 0, mavlink2.MAV_STATE_ACTIVE, 3)
+
+
+def position(k):
+    return mavlink2.MAVLink_global_position_int_message(1000 + k, 314850000 + k, -1115440000, 1300000, 0, 0, 0, 0, 100)
+
+
+@pytest.fixture
+def udp_pair(udp_port, request):
+    """A udpin link and the autopilot streaming to it; request.param = signing key (or None)."""
+    key = getattr(request, "param", None)
+    link = AutopilotLink(f"udpin:127.0.0.1:{udp_port}", target_system=7, signing_key=key).start()
+    ap = SimAutopilot("127.0.0.1", udp_port, 7, boot_unix_s=time.time() - 100.0, signing_key=key).start()
+    yield link, ap
+    link.close()
+    ap.stop()
+
+
+# --- finding 1: a stranger's datagram never changes where replies go ---------------------------------------
+STRANGERS = [
+    # (what the stranger sends, the link's and the autopilot's signing key)
+    (lambda: b"\x00", None),                                            # one byte
+    (lambda: packer(99)(heartbeat()), None),                            # a valid packet of another system
+    (lambda: packer(7, key=bytes(32))(heartbeat()), KEY),               # the target's id, wrong key
+    (lambda: packer(7)(heartbeat()), KEY),                              # the target's id, unsigned
+]
+
+
+@pytest.mark.parametrize("udp_pair, payload", [(k, p) for p, k in STRANGERS], indirect=["udp_pair"],
+                         ids=["one byte", "other system", "forged signature", "unsigned spoof"])
+def test_stranger_datagrams_never_redirect_replies(udp_pair, payload):
+    link, ap = udp_pair
+    assert wait_for(lambda: link.link_up)
+    port = link._transport.sock.getsockname()[1]
+    stop = threading.Event()
+    heard = []
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as stranger:
+        stranger.bind(("127.0.0.1", 0))
+        stranger.settimeout(0.005)
+
+        def flood():  # a datagram every 5 ms: more often than anything the autopilot sends
+            while not stop.is_set():
+                stranger.sendto(payload(), ("127.0.0.1", port))
+                try:
+                    heard.append(stranger.recv(65535))
+                except OSError:
+                    pass
+        t = threading.Thread(target=flood, daemon=True)
+        t.start()
+        try:
+            time.sleep(1.2)  # long enough for the link's 1 Hz heartbeat
+            link.upload_mission([MissionItem(mavlink2.MAV_CMD_NAV_WAYPOINT, 31.4851, -111.5441, 0.0)],
+                                timeout_s=0.2, retries=3)
+        finally:
+            stop.set()
+            t.join(timeout=2.0)
+    assert len(ap.mission) == 1
+    assert heard == [], f"the stranger received {len(heard)} datagrams meant for the autopilot"
+    assert link.reply_addr == ap.sock.getsockname()
+
+
+# --- finding 2: noise before or between packets loses nothing ---------------------------------------------
+NOISE = bytes([0x11, 0x22, 0x33, 0x00, 0x44])
+
+
+@pytest.mark.parametrize("layout", [
+    lambda a, b: NOISE + a,                              # noise before a packet
+    lambda a, b: NOISE + a + NOISE + b,                  # noise before and between two packets
+    lambda a, b: a[:20] + b,                             # a truncated packet before a good one
+    lambda a, b: a[:-1] + bytes([a[-1] ^ 0xFF]) + b,     # a corrupted packet (bad CRC) before a good one
+    lambda a, b: bytes([0xFD, 0xF0, 0x00]) + a + b,      # a false start byte spanning both packets
+    lambda a, b: a + b + NOISE,                          # noise after two packets
+], ids=["before", "between", "truncated first", "corrupted first", "false start", "after"])
+def test_noise_in_a_datagram_loses_no_packet(udp_port, layout):
+    link = AutopilotLink(f"udpin:127.0.0.1:{udp_port}", target_system=7).start()
+    pack = packer(7)
+    sent = 0
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as ap:
+            for k in range(10):
+                packets = [pack(position(2 * k)), pack(position(2 * k + 1))]
+                data = layout(*packets)
+                sent += sum(p in data for p in packets)
+                ap.sendto(data, ("127.0.0.1", udp_port))
+                time.sleep(0.01)
+            assert wait_for(lambda: link.counters["received"] >= sent, 2.0)
+            time.sleep(0.1)
+        assert link.counters["received"] == sent
+        assert abs(link.state().lat_deg - (314850000 + 19) * 1e-7) < 1e-9 or sent < 20
+    finally:
+        link.close()
+
+
+# --- finding 3: signing enforced on TCP and serial, in a process without MAVLINK20 -------------------------
+@pytest.mark.parametrize("case, trusted", [
+    ("same key", True),              # fixes, heartbeats and a mission upload go through
+    ("autopilot unsigned", False),   # nothing from it is used
+    ("wrong key", False),            # nothing from it is used
+])
+@pytest.mark.parametrize("transport", ["tcp", "serial"])
+def test_signing_is_enforced_on_streams_without_mavlink20(transport, case, trusted):
+    env = {k: v for k, v in os.environ.items() if not k.startswith("MAVLINK")}
+    out = subprocess.run([sys.executable, str(HERE / "mavlink_signing_probe.py"), transport, case], env=env,
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
+    got = json.loads(out.stdout.splitlines()[-1])
+    assert got == {"case": case, "state": trusted, "link_up": trusted, "uploaded": trusted}
+
+
+# --- finding 4: the fix type and the accuracy come through as reported ------------------------------------
+@pytest.mark.parametrize("fix_type, h_acc_mm, h_acc_m, usable", [
+    (1, 1_000_000, 1000.0, False),    # no fix, 1 km (was: h_acc None -> a cautious 5 m on the bus)
+    (0, 0, None, False),              # no GPS, accuracy not sent
+    (2, 800, 0.8, False),             # 2D fix
+    (3, 1_000_000, 1000.0, False),    # 3D fix but 1 km
+    (3, 800, 0.8, True),              # 3D fix, 0.8 m
+    (6, 20, 0.02, True),              # RTK fixed
+])
+def test_fix_type_and_accuracy_reach_the_state(udp_pair, fix_type, h_acc_mm, h_acc_m, usable):
+    link, ap = udp_pair
+    assert wait_for(lambda: link.link_up)
+    tb = ap.boot_ms(time.time())
+    ap._send(mavlink2.MAVLink_gps_raw_int_message(tb * 1000, fix_type, 314850000, -1115440000, 1300000, 9999, 9999,
+                                                  0, 0, 0, 0, h_acc_mm, 0, 0, 0, 0))
+    ap._send(position(1))
+    assert wait_for(lambda: link.state() is not None and link.state().fix_type == fix_type, 2.0)
+    st = link.state()
+    assert st.h_acc_m == h_acc_m
+    assert st.usable_fix(5.0) is usable
+    if h_acc_m is not None:  # the bus message carries the reported accuracy, not a default
+        assert fix_from_state("ugv1", st).h_acc_m == pytest.approx(h_acc_m)
