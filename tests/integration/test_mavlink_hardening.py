@@ -1,4 +1,4 @@
-"""The autopilot link against strangers, noise, keys, and GNSS fixes it must not vouch for.
+"""The autopilot link against strangers, noise, keys, real autopilots' mission rules and commands.
 
 Every test here talks over real sockets on loopback (or a pty) to a SimAutopilot or a raw pymavlink peer.
 """
@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from uvteam.autopilot import MissionItem, fix_from_state, mavlink2
+from uvteam.errors import LinkError
 from uvteam.io.mavlink import AutopilotLink
 from uvteam_sim.autopilot import SimAutopilot
 
@@ -177,3 +178,109 @@ def test_fix_type_and_accuracy_reach_the_state(udp_pair, fix_type, h_acc_mm, h_a
     assert st.usable_fix(5.0) is usable
     if h_acc_m is not None:  # the bus message carries the reported accuracy, not a default
         assert fix_from_state("ugv1", st).h_acc_m == pytest.approx(h_acc_m)
+
+
+# --- finding 5: missions as PX4 and ArduPilot want them ------------------------------------------------------
+def station_items():
+    import numpy as np
+
+    from uvteam.geo import LocalFrame
+    from uvteam.mission import plan_to_mission
+    from uvteam.planning import plan_stations
+
+    frame = LocalFrame(31.485, -111.544)
+    plans = plan_stations([0, 0], [2.0, 0.0], {"a": np.array([-12.0, 0.0])}, 1000.0, radius_m=12.0)
+    return frame, plan_to_mission(plans["a"], frame)
+
+
+@pytest.mark.parametrize("autopilot, first_current_seq", [
+    (mavlink2.MAV_AUTOPILOT_PX4, 0),            # PX4 starts at the item marked current: our first
+    (mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA, 1),  # ArduPilot keeps HOME at 0 and starts at 1
+], ids=["px4", "ardupilot"])
+def test_station_mission_is_accepted_and_reads_back_the_same_plan(udp_port, autopilot, first_current_seq):
+    from uvteam.mission import mission_to_plan
+
+    frame, items = station_items()
+    link = AutopilotLink(f"udpin:127.0.0.1:{udp_port}", target_system=7).start()
+    ap = SimAutopilot("127.0.0.1", udp_port, 7, boot_unix_s=time.time() - 100.0, autopilot=autopilot).start()
+    try:
+        assert wait_for(lambda: link.mission_convention is not None)
+        link.upload_mission(items)
+        assert ap.rejected == [] and ap.current_seq == first_current_seq
+        assert [(i.command, i.frame, i.param2) for i in ap.mission] == [(i.command, i.frame, i.param2) for i in items]
+        got = link.download_mission()
+        assert [i.current for i in got] == [1] + [0] * (len(items) - 1)   # the vehicle says: starts at our first
+        assert [(i.command, i.frame) for i in got] == [(i.command, i.frame) for i in items]
+        want = mission_to_plan("a", items, frame, [-12.0, 0.0], 1000.0, 4.0).waypoints
+        back = mission_to_plan("a", got, frame, [-12.0, 0.0], 1000.0, 4.0).waypoints
+        assert len(back) == len(want)
+        for w, b in zip(want, back):  # the same plan, to the wire's 1e-7 deg (1 cm)
+            assert b.lat_deg == pytest.approx(w.lat_deg, abs=1e-7) and b.lon_deg == pytest.approx(w.lon_deg, abs=1e-7)
+            assert b.stamp_s == pytest.approx(w.stamp_s, abs=0.02)
+    finally:
+        link.close()
+        ap.stop()
+
+
+def test_px4_refuses_a_speed_item_in_a_global_frame(udp_port):
+    # what the link sent before: DO_CHANGE_SPEED in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT (PX4: UNSUPPORTED)
+    link = AutopilotLink(f"udpin:127.0.0.1:{udp_port}", target_system=7).start()
+    ap = SimAutopilot("127.0.0.1", udp_port, 7, boot_unix_s=time.time(), autopilot=mavlink2.MAV_AUTOPILOT_PX4).start()
+    try:
+        assert wait_for(lambda: link.mission_convention is not None)
+        old = [MissionItem(mavlink2.MAV_CMD_DO_CHANGE_SPEED, param1=1, param2=2.0, param3=-1,
+                           frame=mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT),
+               MissionItem(mavlink2.MAV_CMD_NAV_WAYPOINT, 31.4851, -111.5441, 0.0)]
+        with pytest.raises(LinkError, match=f"MAV_MISSION_RESULT {mavlink2.MAV_MISSION_UNSUPPORTED}"):
+            link.upload_mission(old)
+        assert ap.rejected == [(0, mavlink2.MAV_MISSION_UNSUPPORTED)] and ap.mission == []
+    finally:
+        link.close()
+        ap.stop()
+
+
+# --- finding 6: COMMAND_LONG is answered ---------------------------------------------------------------------
+def test_sim_autopilot_answers_command_long_raw(udp_port):
+    """A raw pymavlink companion: COMMAND_LONG in, COMMAND_ACK out."""
+    mav = mavlink2.MAVLink(None, 245, mavlink2.MAV_COMP_ID_ONBOARD_COMPUTER)
+    acks = []
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as gcs:
+        gcs.bind(("127.0.0.1", udp_port))
+        gcs.settimeout(3.0)
+        ap = SimAutopilot("127.0.0.1", udp_port, 7, boot_unix_s=time.time()).start()
+        try:
+            _, ap_addr = gcs.recvfrom(4096)          # its first heartbeat tells where it is
+            gcs.settimeout(0.1)
+            rows = [(mavlink2.MAV_CMD_DO_CHANGE_SPEED, [1, 2.5, -1, 0, 0, 0, 0]),
+                    (mavlink2.MAV_CMD_REQUEST_MESSAGE, [mavlink2.MAVLINK_MSG_ID_HEARTBEAT, 0, 0, 0, 0, 0, 0]),
+                    (mavlink2.MAV_CMD_NAV_TAKEOFF, [0] * 7)]
+            for cmd, p in rows:
+                gcs.sendto(mavlink2.MAVLink_command_long_message(7, 1, cmd, 0, *p).pack(mav), ap_addr)
+            end = time.monotonic() + 2.0
+            while len(acks) < 3 and time.monotonic() < end:
+                try:
+                    data = gcs.recv(4096)
+                except OSError:
+                    continue
+                acks += [(m.command, m.result) for m in mav.parse_buffer(data) or [] if m.get_type() == "COMMAND_ACK"]
+        finally:
+            ap.stop()
+    assert acks == [(mavlink2.MAV_CMD_DO_CHANGE_SPEED, mavlink2.MAV_RESULT_ACCEPTED),
+                    (mavlink2.MAV_CMD_REQUEST_MESSAGE, mavlink2.MAV_RESULT_ACCEPTED),
+                    (mavlink2.MAV_CMD_NAV_TAKEOFF, mavlink2.MAV_RESULT_UNSUPPORTED)]
+
+
+@pytest.mark.parametrize("udp_pair", [None, KEY], indirect=True, ids=["unsigned", "signed"])
+def test_link_command_long_gets_the_ack(udp_pair):
+    link, ap = udp_pair
+    assert wait_for(lambda: link.link_up)
+    ok, unsupported, failed = mavlink2.MAV_RESULT_ACCEPTED, mavlink2.MAV_RESULT_UNSUPPORTED, mavlink2.MAV_RESULT_FAILED
+    assert link.command_long(mavlink2.MAV_CMD_DO_CHANGE_SPEED, 1, 2.5, -1) == ok and ap.speed_m_s == 2.5
+    gpi = mavlink2.MAVLINK_MSG_ID_GLOBAL_POSITION_INT
+    assert link.command_long(mavlink2.MAV_CMD_REQUEST_MESSAGE, gpi) == failed      # nothing to send yet
+    ap.send_position(time.time(), 31.4852, -111.5442, 1300.0, 0.0, 45.0, 0.0, 0.0, 1.0)
+    assert wait_for(lambda: link.state() is not None)
+    before = link.counters["received"]
+    assert link.command_long(mavlink2.MAV_CMD_REQUEST_MESSAGE, gpi) == ok
+    assert wait_for(lambda: link.counters["received"] > before)                    # and the message came
+    assert link.command_long(mavlink2.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 10) == unsupported

@@ -5,6 +5,7 @@
     state = link.state()                 # latest VehicleState in SI units, or None
     items = link.download_mission()      # MISSION_REQUEST_LIST -> COUNT -> REQUEST_INT(seq) -> ITEM_INT -> ACK
     link.upload_mission(items)           # COUNT -> (vehicle) REQUEST_INT(seq) -> ITEM_INT ... -> (vehicle) ACK
+    result = link.command_long(mavlink2.MAV_CMD_DO_CHANGE_SPEED, 1, 2.0, -1)   # -> MAV_RESULT of COMMAND_ACK
 
 URLs: ``udpin:HOST:PORT`` (listen; the autopilot sends first, as autopilots stream to their companion),
 ``udpout:HOST:PORT`` (send to the autopilot; heartbeats open the path), ``tcp:HOST:PORT`` (client,
@@ -38,6 +39,13 @@ Time: GLOBAL_POSITION_INT carries the autopilot's boot time; SYSTEM_TIME gives t
 so a fix's ``stamp_s`` is its capture time, not its arrival time (arrival time is used, and said so in
 ``VehicleState.stamp_source``, until SYSTEM_TIME has been seen).
 
+Missions and the autopilot's conventions (read in their sources, 2026-12): ArduPilot keeps HOME as item 0
+(AP_Mission::read_cmd_from_storage returns home for index 0 whatever was uploaded there, and missions run
+from index 1, AP_MISSION_FIRST_REAL_COMMAND), ignores ``current`` on upload and reports the running item
+as current on download. PX4 (mavlink_mission.cpp) starts the mission at the uploaded item marked
+``current``; MAVSDK marks item 0. So :meth:`AutopilotLink.upload_mission` puts a HOME placeholder at seq 0
+for ArduPilot (and drops it again on download) and marks the first item current for everyone else; which
+stack it is comes from the target's HEARTBEAT.autopilot.
 """
 
 from __future__ import annotations
@@ -67,6 +75,8 @@ NEW_STREAM_MAX_LAG = 60 * 100_000        # a new signed stream may be at most 1 
 _V1, _V2 = mavlink2.PROTOCOL_MARKER_V1, mavlink2.PROTOCOL_MARKER_V2
 _SIGNED = mavlink2.MAVLINK_IFLAG_SIGNED
 _SIG_LEN = mavlink2.MAVLINK_SIGNATURE_BLOCK_LEN
+ARDUPILOT = "ardupilot"
+STANDARD = "standard"
 
 
 def signing_timestamp(unix_s: float | None = None) -> int:
@@ -402,6 +412,7 @@ class AutopilotLink:
         self._last_hb = -math.inf
         self.autopilot: int | None = None            # HEARTBEAT.autopilot of the target (MAV_AUTOPILOT_*)
         self._mission_q: queue.Queue = queue.Queue()
+        self._ack_q: queue.Queue = queue.Queue()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._tx_lock = threading.Lock()
@@ -464,6 +475,13 @@ class AutopilotLink:
     def reply_addr(self):
         """Where UDP replies go: the udpout address, or (udpin) the address the target last spoke from."""
         return self._reply_addr
+
+    @property
+    def mission_convention(self) -> str | None:
+        """ARDUPILOT (home at seq 0) or STANDARD (PX4 and the MAVLink spec); None before a HEARTBEAT."""
+        if self.autopilot is None:
+            return None
+        return ARDUPILOT if self.autopilot == mavlink2.MAV_AUTOPILOT_ARDUPILOTMEGA else STANDARD
 
     # --- I/O loop ----------------------------------------------------------------------------------
     def send(self, msg) -> None:
@@ -532,9 +550,11 @@ class AutopilotLink:
                 self.counters["out_of_range"] += 1
         elif t == "GLOBAL_POSITION_INT":
             self._on_position(m)
-        elif t.startswith("MISSION_"):
+        elif t.startswith("MISSION_") or t == "COMMAND_ACK":
             if not self._for_us(m):
                 self.counters["not_for_us"] += 1
+            elif t == "COMMAND_ACK":
+                self._ack_q.put(m)
             else:
                 self._mission_q.put(m)
         return True
@@ -571,6 +591,27 @@ class AutopilotLink:
         with self._lock:
             self._state = st
 
+    # --- commands ----------------------------------------------------------------------------------
+    def command_long(self, command: int, *params: float, timeout_s: float = 0.5, retries: int = 3) -> int:
+        """Send COMMAND_LONG (up to 7 params, the rest 0) and return the MAV_RESULT of its COMMAND_ACK;
+        a lost command is sent again with ``confirmation`` counting up. LinkError when no ACK comes."""
+        if len(params) > 7:
+            raise ValueError(f"params: COMMAND_LONG has 7 params, got {len(params)}")
+        p = [float(v) for v in params] + [0.0] * (7 - len(params))
+        tc = max(self.target_component, 1)
+        self._drain(self._ack_q)
+        for confirmation in range(retries + 1):
+            self.send(mavlink2.MAVLink_command_long_message(self.target_system, tc, command, confirmation % 256, *p))
+            deadline = time.monotonic() + timeout_s
+            while (left := deadline - time.monotonic()) > 0:
+                try:
+                    ack = self._ack_q.get(timeout=left)
+                except queue.Empty:
+                    break
+                if ack.command == command and ack.result != mavlink2.MAV_RESULT_IN_PROGRESS:
+                    return ack.result
+        raise LinkError(self.url, f"no COMMAND_ACK for command {command}")
+
     # --- mission protocol ----------------------------------------------------------------------------
     @staticmethod
     def _drain(q: queue.Queue) -> None:
@@ -595,9 +636,31 @@ class AutopilotLink:
                     continue
                 return m
 
+    def _convention(self, wait_s: float) -> str:
+        deadline = time.monotonic() + wait_s
+        while self.mission_convention is None and time.monotonic() < deadline:
+            time.sleep(0.02)
+        conv = self.mission_convention
+        if conv is None:
+            raise LinkError(self.url, "no HEARTBEAT from the autopilot yet: cannot tell its mission convention")
+        return conv
+
+    def _home_placeholder(self) -> MissionItem:
+        """Item 0 for ArduPilot, which keeps HOME there and ignores what is uploaded to it."""
+        st = self.state()
+        lat, lon, alt = (st.lat_deg, st.lon_deg, st.alt_amsl_m) if st is not None else (0.0, 0.0, 0.0)
+        return MissionItem(mavlink2.MAV_CMD_NAV_WAYPOINT, lat, lon, alt, frame=mavlink2.MAV_FRAME_GLOBAL)
+
+    def wire_items(self, items: list[MissionItem], convention: str) -> list[MissionItem]:
+        """The items as they go on the wire for an autopilot of this convention (see module docstring)."""
+        if convention == ARDUPILOT:
+            return [self._home_placeholder()] + [replace(it, current=0) for it in items]
+        return [replace(it, current=int(k == 0)) for k, it in enumerate(items)]
+
     def download_mission(self, *, timeout_s: float = 0.5, retries: int = 5) -> list[MissionItem]:
-        """The vehicle's mission items (plain mission type), each with the ``current`` flag the vehicle
-        reported; LinkError when it cannot."""
+        """The vehicle's mission items (plain mission type; ArduPilot's HOME at seq 0 left out), each with
+        the ``current`` flag the vehicle reported; LinkError when it cannot."""
+        convention = self._convention(timeout_s * retries)
         ts, tc = self.target_system, max(self.target_component, 1)
         self._drain(self._mission_q)
         count_msg = None
@@ -621,11 +684,15 @@ class AutopilotLink:
             items.append(MissionItem.from_msg(got))
         self.send(mavlink2.MAVLink_mission_ack_message(ts, tc, mavlink2.MAV_MISSION_ACCEPTED,
                                                        mavlink2.MAV_MISSION_TYPE_MISSION))
-        return items
+        return items[1:] if convention == ARDUPILOT else items
 
     def upload_mission(self, items: list[MissionItem], *, timeout_s: float = 0.5, retries: int = 5) -> None:
-        """Replace the vehicle's mission; LinkError unless the vehicle ACKs it as accepted."""
-        wire = list(items)
+        """Replace the vehicle's mission; LinkError unless the vehicle ACKs it as accepted.
+
+        The autopilot's convention is applied here (see :meth:`wire_items`): ArduPilot gets a HOME
+        placeholder at seq 0 and ``current`` 0 everywhere (it ignores the flag on upload); PX4 and any
+        standard autopilot get the first item marked ``current``, where the mission starts."""
+        wire = self.wire_items(items, self._convention(timeout_s * retries))
         ts, tc = self.target_system, max(self.target_component, 1)
         self._drain(self._mission_q)
         count = mavlink2.MAVLink_mission_count_message(ts, tc, len(wire), mavlink2.MAV_MISSION_TYPE_MISSION)
