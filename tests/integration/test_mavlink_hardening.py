@@ -156,6 +156,32 @@ def test_signing_is_enforced_on_streams_without_mavlink20(transport, case, trust
     assert got == {"case": case, "state": trusted, "link_up": trusted, "uploaded": trusted}
 
 
+def test_tcp_link_reopens_after_the_autopilot_closes(tcp_port):
+    """The autopilot (or its router) drops the TCP connection: the link reconnects and goes on."""
+    hb = packer(7)
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as srv:
+        srv.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        srv.bind(("127.0.0.1", tcp_port))
+        srv.listen(1)
+        srv.settimeout(5.0)
+        link = AutopilotLink(f"tcp:127.0.0.1:{tcp_port}", target_system=7).start()
+        try:
+            conn, _ = srv.accept()
+            conn.sendall(hb(heartbeat()))
+            assert wait_for(lambda: link.link_up)
+            conn.close()                                   # EOF on the link's side
+            cpu0 = time.process_time()
+            time.sleep(1.0)
+            assert time.process_time() - cpu0 < 0.25       # no busy loop on EOF (mavutil's took ~90% of a core)
+            conn, _ = srv.accept()                         # it comes back
+            with conn:
+                conn.sendall(hb(position(1)))
+                assert wait_for(lambda: link.state() is not None)
+            assert link.counters["reconnects"] >= 1
+        finally:
+            link.close()
+
+
 # --- finding 4: the fix type and the accuracy come through as reported ------------------------------------
 @pytest.mark.parametrize("fix_type, h_acc_mm, h_acc_m, usable", [
     (1, 1_000_000, 1000.0, False),    # no fix, 1 km (was: h_acc None -> a cautious 5 m on the bus)

@@ -391,6 +391,14 @@ class _Sink:
 
 
 class AutopilotLink:
+    """The companion's end of the link to one autopilot (see the module docstring).
+
+    ``target_system``/``target_component`` (0 = any component): whose messages are used.
+    ``source_system``/``source_component``: who we are (replies must be addressed to us).
+    ``signing_key`` (32 bytes) and ``link_id``: MAVLink 2 signing, both ways, on every transport.
+    ``link_timeout_s``: the link is "down" when no HEARTBEAT of the target came for this long.
+    """
+
     def __init__(self, url: str, *, target_system: int = 1, target_component: int = 0,
                  source_system: int = 245, source_component: int = mavlink2.MAV_COMP_ID_ONBOARD_COMPUTER,
                  signing_key: bytes | None = None, link_id: int = 0, link_timeout_s: float = 3.0,
