@@ -1,8 +1,14 @@
 """Pure: station plans <-> MAVLink missions, and a mission -> the plan (waypoints with times).
 
-A leg's speed travels as MAV_CMD_DO_CHANGE_SPEED (param1 = 1 ground speed, param2 = m/s) before its
-MAV_CMD_NAV_WAYPOINT, which any standard autopilot honours; the plan's times follow from the
-vehicle's position, the legs' lengths and their speeds.
+A leg's speed travels as MAV_CMD_DO_CHANGE_SPEED (param1 = 1 ground speed, param2 = m/s, param3 = -1
+throttle unchanged) before its MAV_CMD_NAV_WAYPOINT, which any standard autopilot honours; the plan's
+times follow from the vehicle's position, the legs' lengths and their speeds.
+
+Frames: DO_CHANGE_SPEED travels in MAV_FRAME_MISSION and NAV_WAYPOINT in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+frames both PX4 and ArduPilot accept for these commands (their mission parsers are cited at
+:data:`uvteam.autopilot.POSITIONAL_COMMANDS`). The items here are the vehicle's mission as the service
+means it; the autopilot's own conventions (ArduPilot's home at seq 0, the ``current`` flag) are applied
+and removed by the link, so a downloaded mission gives the same plan on either stack.
 """
 
 from __future__ import annotations
@@ -11,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .autopilot import MAV_CMD_DO_CHANGE_SPEED, MAV_CMD_NAV_WAYPOINT, MissionItem
+from .autopilot import FRAME_GLOBAL_INT, FRAME_MISSION, MAV_CMD_DO_CHANGE_SPEED, MAV_CMD_NAV_WAYPOINT, MissionItem
 from .geo import LocalFrame
 from .messages import Plan, Waypoint
 from .planning import StationPlan
@@ -23,8 +29,9 @@ def plan_to_mission(plan: StationPlan, frame: LocalFrame) -> list[MissionItem]:
     lat, lon = frame.ground_to_wgs84(plan.en_m[:, 0], plan.en_m[:, 1])
     items: list[MissionItem] = []
     for la, lo, sp in zip(np.atleast_1d(lat), np.atleast_1d(lon), plan.speed_m_s):
-        items.append(MissionItem(MAV_CMD_DO_CHANGE_SPEED, param1=1.0, param2=float(sp), param3=-1.0))
-        items.append(MissionItem(MAV_CMD_NAV_WAYPOINT, float(la), float(lo), 0.0))
+        items.append(MissionItem(MAV_CMD_DO_CHANGE_SPEED, param1=1.0, param2=float(sp), param3=-1.0,
+                                 frame=FRAME_MISSION))
+        items.append(MissionItem(MAV_CMD_NAV_WAYPOINT, float(la), float(lo), 0.0, frame=FRAME_GLOBAL_INT))
     return items
 
 

@@ -119,16 +119,17 @@ class UgvNode:
 
     # --- phases ---------------------------------------------------------------------------------------
     def publish_fix(self) -> Fix | None:
-        """A new autopilot state as this UGV's fix (withheld without a 3D fix or when too inaccurate)."""
+        """A new autopilot state as this UGV's fix (withheld without a 3D fix or when too inaccurate, or
+        when the autopilot does not say)."""
         st = self.autopilot.state()
         if st is None or st.stamp_s <= self.last_state_stamp:
             return None
         self.last_state_stamp = st.stamp_s
-        fix = fix_from_state(self.cfg.id, st)
-        if (fix.fix_type is not None and fix.fix_type < 3) or fix.h_acc_m > self.u.max_h_acc_m:
+        if not st.usable_fix(self.u.max_h_acc_m):   # unknown fix type or accuracy is not usable either
             self.counts.add("fixes_withheld")
-            self._warn.warn("fix", "fix withheld: fix type %s, accuracy %.1f m", fix.fix_type, fix.h_acc_m)
+            self._warn.warn("fix", "fix withheld: fix type %s, accuracy %s m", st.fix_type, st.h_acc_m)
             return None
+        fix = fix_from_state(self.cfg.id, st)
         if self.frame is None:
             self.frame = LocalFrame(st.lat_deg, st.lon_deg, st.alt_amsl_m)
         self.bus.publish(keys.key(self.cfg.team, self.cfg.id, "fix"), fix)
