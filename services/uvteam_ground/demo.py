@@ -169,6 +169,10 @@ class Team:
                 p.wait(timeout=5)
         return {n: p.returncode for n, p in self.procs.items()}
 
+    def observer_bus(self) -> BusConfig:
+        """How the demo's own view joins the team's bus."""
+        return BusConfig(mode="client", connect=(self.endpoint,))
+
     def tail(self, name: str, n: int = 15) -> str:
         try:
             return "\n".join((self.dir / "logs" / f"{name}.log").read_text(errors="replace").splitlines()[-n:])
@@ -279,7 +283,7 @@ def _view(obs: Observer, team: Team, t_rel: float) -> str:
 def run_demo(team: Team, stop: StopFlag, *, live: bool = True, out=sys.stdout) -> tuple[dict, dict]:
     obs = Observer(team)
     team.start()
-    bus = ZenohBus.open(BusConfig(mode="client", connect=(team.endpoint,)))
+    bus = ZenohBus.open(team.observer_bus())
     try:
         bus.subscribe(keys.key(team.team, "sim", "truth"), Truth, obs.on_truth)
         bus.subscribe(keys.key(team.team, team.uav, "crowds"), Crowds, obs.on_crowds)
