@@ -278,6 +278,10 @@ def test_only_the_localizer_puts_crowds(team, inbox):
 def test_operator_subscribes_but_cannot_put(team, inbox):
     tap, ugv1 = team.open("tap"), team.open("ugv1")
     seen = Inbox(tap)
+    # beyond the team's keys: refused (own session: within one, data that came for an allowed subscription
+    # is handed to every local subscriber it matches)
+    everything = []
+    wide = team.open("tap").declare_subscriber("uvteam/**", lambda s: everything.append(str(s.key_expr)))
     try:
         _put_until_seen(seen, ugv1, keys.key(TEAM, "ugv1", "fix"))     # it reads the team's keys
         attempts = [(keys.key(TEAM, "tap", "status"), b"tap status"), (keys.key(TEAM, "ugv1", "fix"), b"tap fix")]
@@ -289,8 +293,10 @@ def test_operator_subscribes_but_cannot_put(team, inbox):
         time.sleep(0.3)
         assert [a for a in attempts if inbox.got(*a)] == []
         assert keys.alive(TEAM, "tap") not in inbox.alive
+        assert everything == []
         token.undeclare()
     finally:
+        wide.undeclare()
         seen.close()
 
 
