@@ -10,6 +10,8 @@ played for real: a UGV lost at t seconds has its service killed (SIGKILL) at t.
 
     uvteam demo                                       the default scenario (6 UGVs, 50 m, 30 s)
     uvteam demo --scenario ../shared/scenarios/paper-fig8-lm6.toml --duration 20
+    uvteam demo --secure                              the same under the secure profile (uvteam certs:
+                                                      TLS, client certificates, access control)
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ import sys
 import tempfile
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from uvteam import keys
@@ -71,7 +74,7 @@ class Team:
 
     def __init__(self, scenario_path: str, *, team: str = "demo", seed: int | None = None,
                  duration_s: float | None = None, workdir: str | None = None, log_level: str = "INFO",
-                 frames: str = "pixels") -> None:
+                 frames: str = "pixels", secure: bool = False) -> None:
         if frames not in FRAMES:
             raise ValueError(f"frames must be 'pixels' or 'sensor', got {frames!r}")
         self.sc = load_scenario(scenario_path)
@@ -80,7 +83,8 @@ class Team:
         self.dir = Path(workdir or tempfile.mkdtemp(prefix="uvteam-demo-"))
         (self.dir / "logs").mkdir(parents=True, exist_ok=True)
         self.router_port = free_port()
-        self.endpoint = f"tcp/127.0.0.1:{self.router_port}"
+        self.secure = secure
+        self.endpoint = f"{'tls' if secure else 'tcp'}/127.0.0.1:{self.router_port}"
         base = TeamLayout.for_scenario(self.sc, team)
         self.ports = {v: free_port(socket.SOCK_DGRAM) for v in (base.uav, *base.ugvs)}
         self.layout = TeamLayout(team, base.uav, base.localizer, base.ugvs,
@@ -93,8 +97,24 @@ class Team:
         self.expected_exit: set[str] = set()
         self.configs = team_configs(self.sc, self.layout, detector=FRAMES[frames],
                                     bus=BusConfig(mode="client", connect=(self.endpoint,)))
+        if secure:   # every member on its own certificate and generated zenoh config; the view reads only
+            from .certs import Roster, write_team  # noqa: PLC0415
+
+            write_team(Roster(team, (self.uav,), tuple(self.ugvs), ((self.localizer, self.uav),), ("sim",), ("view",)),
+                       self.secrets, router_hosts=("127.0.0.1",), listen=(self.endpoint,))
+            self.configs = {v: replace(c, bus=self.member_bus(v)) for v, c in self.configs.items()}
         for vid, cfg in self.configs.items():
             (self.dir / f"{vid}.toml").write_text(vehicle_config_to_toml(cfg, f"uvteam demo: {vid} ({cfg.role})"))
+
+    @property
+    def secrets(self) -> Path:
+        return self.dir / "secrets"
+
+    def member_bus(self, member: str) -> BusConfig:
+        """How a member (or the demo's view, "view") joins the team's bus."""
+        if self.secure:
+            return BusConfig(config_file=str(self.secrets / f"{member}.json5"))
+        return BusConfig(mode="client", connect=(self.endpoint,))
 
     def _spawn(self, name: str, args: list[str]) -> None:
         log = self.logs[name] = open(self.dir / "logs" / f"{name}.log", "wb")
@@ -102,7 +122,8 @@ class Team:
                                             stdin=subprocess.DEVNULL, start_new_session=True)
 
     def start(self) -> None:
-        self._spawn("router", ["router", "--listen", self.endpoint])
+        self._spawn("router", ["router", "--zenoh-config", str(self.secrets / "router.json5")] if self.secure
+                    else ["router", "--listen", self.endpoint])
         if not _wait_port(self.router_port, 15.0):
             raise RuntimeError(f"the router did not come up; see {self.dir / 'logs' / 'router.log'}")
         ll = ["--log-level", self.log_level]
@@ -119,6 +140,8 @@ class Team:
                 "--frames", self.frames]
         if self.seed is not None:
             args += ["--seed", str(self.seed)]
+        if self.secure:
+            args += ["--zenoh-config", str(self.secrets / "sim.json5")]
         for u in self.ugvs:
             args += ["--ugv", f"{u}:{self.ports[u]}:{sysid[u]}"]
         self._spawn("sim", args)
@@ -159,6 +182,7 @@ class Team:
         """Log files that could not be written in full (a full or failing disk loses the evidence)."""
         free = shutil.disk_usage(self.dir).free
         return [f"{self.dir / 'logs'}: only {free} bytes free"] if free < 1 << 20 else []
+
 
     def tail(self, name: str, n: int = 15) -> str:
         try:
@@ -219,7 +243,7 @@ class Observer:
 def run_demo(team: Team, stop: StopFlag, *, live: bool = True, out=sys.stdout) -> tuple[dict, dict]:
     obs = Observer(team)
     team.start()
-    bus = ZenohBus.open(BusConfig(mode="client", connect=(team.endpoint,)))
+    bus = ZenohBus.open(team.member_bus("view"))
     try:
         bus.subscribe(keys.key(team.team, "sim", "truth"), Truth, obs.scorer.on_truth)
         bus.subscribe(keys.key(team.team, team.localizer, "crowds"), Crowds, obs.scorer.on_crowds)
@@ -300,14 +324,19 @@ def main(argv: list[str] | None = None) -> int:
                          "(default); sensor: the simulator's sensor model replaces the UAV's vision")
     ap.add_argument("--json", metavar="FILE", help="also write the summary as JSON")
     ap.add_argument("--workdir", help="where configs and logs go (default: a new temporary folder)")
+    ap.add_argument("--secure", action="store_true",
+                    help="run under the secure profile: a team CA and certificates (uvteam certs), TLS with client "
+                         "certificates, and access control on the router")
     args = ap.parse_args(argv)
     stop = StopFlag()
     try:
-        team = Team(args.scenario, seed=args.seed, duration_s=args.duration, workdir=args.workdir, frames=args.frames)
+        team = Team(args.scenario, seed=args.seed, duration_s=args.duration, workdir=args.workdir, frames=args.frames,
+                    secure=args.secure)
     except (ConfigError, OSError) as exc:
         print(f"uvteam demo: {exc}", file=sys.stderr)
         return 2
-    tap = " ".join(uvteam_command() + ["tap", "--summary", "--team", team.team, "--connect", team.endpoint])
+    join = ["--zenoh-config", str(team.secrets / "view.json5")] if team.secure else ["--connect", team.endpoint]
+    tap = " ".join(uvteam_command() + ["tap", "--summary", "--team", team.team, *join])
     print(f"uvteam demo: {team.sc.name}, {len(team.ugvs)} UGVs, {team.duration_s:.0f} s; router {team.endpoint}\n"
           f"  configs and logs: {team.dir}\n  watch from another terminal: {tap}", flush=True)
     summary, codes = run_demo(team, stop, live=not args.quiet)
