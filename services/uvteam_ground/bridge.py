@@ -54,6 +54,8 @@ def write_atomic(path: Path, data: bytes) -> None:
     """Replace ``path`` with ``data`` so a reader sees the old file or the new one, never half of one."""
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
+        # mkstemp makes 0600; keep an existing file's mode, else readable by all (a web server serves it)
+        os.fchmod(fd, path.stat().st_mode & 0o777 if path.exists() else 0o644)
         with os.fdopen(fd, "wb") as f:
             f.write(data)
         os.replace(tmp, path)
@@ -183,7 +185,8 @@ class Bridge:
         self.args, self.team = args, team
         interval_s = args.tracking_interval_s
         self.stale_s = args.cot_stale_intervals * interval_s
-        self.picture = Picture(team, max_age_s=args.max_age_s or self.stale_s)
+        self.picture = Picture(team, max_age_s=args.max_age_s or self.stale_s, max_track_points=args.track_points,
+                               track_period_s=args.track_period_s)
         self.geojson_path = Path(args.geojson) if args.geojson else None
         self.kml_path = Path(args.kml) if args.kml else None
         self.kmz_path = Path(args.kmz) if args.kmz else None
@@ -347,6 +350,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                     help="the team's tracking interval (default 1.0, as in deploy/vehicles)")
     ap.add_argument("--max-age-s", type=float, default=0.0,
                     help="drop a localizer's crowds after this long without news (default: the CoT stale time)")
+    ap.add_argument("--track-period-s", type=float, default=1.0,
+                    help="keep one track point per crowd / vehicle per this many seconds (default 1)")
+    ap.add_argument("--track-points", type=_positive(int, "--track-points"), default=3600,
+                    help="keep this many points per track (default 3600: an hour at 1 s)")
     ap.add_argument("--duration", type=float, default=0.0, help="exit after this many seconds (0 = until stopped)")
     ap.add_argument("--log-level", default="INFO", choices=["DEBUG", "INFO", "WARNING", "ERROR"])
     add_bus_args(ap)

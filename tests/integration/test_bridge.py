@@ -96,7 +96,7 @@ def test_bridge_end_to_end(team_bus, tmp_path):
            "--kml", str(out["crowds.kml"]), "--kmz", str(out["crowds.kmz"]), "--csv", str(out["crowds.csv"]),
            "--cot", f"udp://127.0.0.1:{cot_sock.getsockname()[1]}", "--cot-period-s", "0",
            "--mavlink", f"udpout:127.0.0.1:{mav_sock.getsockname()[1]}", "--mavlink-sysid", "42",
-           "--mavlink-rate-hz", "5", "--kml-period-s", "1"]
+           "--mavlink-rate-hz", "5", "--kml-period-s", "1", "--track-period-s", "0.1"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         events = {}

@@ -73,6 +73,18 @@ def test_picture_ages_out_a_quiet_source(stamp_s, now_s, n_crowds):
     assert len(_picture().snapshot(now_s).crowds) == n_crowds
 
 
+@pytest.mark.parametrize("period_s, steps_s, want_points", [
+    (1.0, [0.0, 0.1, 0.5, 1.0, 1.9, 2.0], 3),    # one point a second: 0, 1.0, 2.0
+    (0.0, [0.0, 0.1, 0.5, 1.0, 1.9, 2.0], 6),    # every frame
+    (0.0, [0.0, 0.0, -1.0], 1),                  # the same frame twice, then an older one: kept once
+])
+def test_picture_track_period(period_s, steps_s, want_points):
+    p = Picture("demo", track_period_s=period_s)
+    for dt in steps_s:
+        p.add_fix(Fix("ugv1", T0 + dt, LAT, LON, 0.0, 0.0, 1.0))
+    assert len(p.vehicle_tracks()["ugv1"]) == want_points
+
+
 def test_picture_ignores_out_of_order_messages():
     p = _picture()
     assert p.add_crowds(Crowds("loc1", T0 - 5.0, "exact", (), (), (_crowd(99),))) == ()
@@ -83,6 +95,7 @@ def test_picture_ignores_out_of_order_messages():
 @pytest.mark.parametrize("kwargs", [
     {"max_age_s": 0.0},           # a picture that forgets at once
     {"max_track_points": 0},      # tracks with no room
+    {"track_period_s": -1.0},     # a negative period
 ])
 def test_picture_rejects_bad_settings(kwargs):
     with pytest.raises(ValueError, match=next(iter(kwargs))):

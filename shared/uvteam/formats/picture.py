@@ -6,7 +6,8 @@ source is the localizer that reported it (``Crowds.vehicle``) and ``crowd_id`` t
 Each Crowds message is the whole set of its source's crowds in one frame: crowds missing from it are
 gone. A crowd also leaves the snapshot when its source has said nothing for ``max_age_s``. Messages older
 than the newest already taken from the same source or vehicle are ignored (zenoh may reorder across
-routes). Tracks keep the last ``max_track_points`` points of each crowd and vehicle.
+routes). Tracks keep one point per ``track_period_s`` (a localizer reports at the camera's rate, an
+autopilot at 10 Hz) and the last ``max_track_points`` of them for each crowd and vehicle.
 """
 
 from __future__ import annotations
@@ -63,12 +64,16 @@ class Snapshot:
 
 
 class Picture:
-    def __init__(self, team: str, max_age_s: float = 5.0, max_track_points: int = 3600) -> None:
+    def __init__(self, team: str, max_age_s: float = 5.0, max_track_points: int = 3600,
+                 track_period_s: float = 1.0) -> None:
         if not max_age_s > 0.0:
             raise ValueError(f"max_age_s must be > 0, got {max_age_s!r}")
         if max_track_points < 1:
             raise ValueError(f"max_track_points must be >= 1, got {max_track_points!r}")
+        if not track_period_s >= 0.0:
+            raise ValueError(f"track_period_s must be >= 0, got {track_period_s!r}")
         self.team, self.max_age_s, self.max_track_points = team, float(max_age_s), int(max_track_points)
+        self.track_period_s = float(track_period_s)
         self._crowds: dict[str, tuple[float, tuple[CrowdSeen, ...]]] = {}     # source -> (stamp, crowds)
         self._vehicles: dict[str, VehicleSeen] = {}
         self._roles: dict[str, str] = {}
@@ -125,6 +130,6 @@ class Picture:
         d = tracks.get(key)
         if d is None:
             d = tracks[key] = deque(maxlen=self.max_track_points)
-        if d and p.stamp_s <= d[-1].stamp_s:      # the same frame twice, or out of order: keep time increasing
-            return
+        if d and (p.stamp_s <= d[-1].stamp_s or p.stamp_s - d[-1].stamp_s < self.track_period_s):
+            return                                 # time strictly increasing, one point per track_period_s
         d.append(p)
