@@ -217,3 +217,29 @@ def test_bridge_cot_to_a_tak_server_over_tcp(team_bus):
             proc.communicate(timeout=10)
         srv.close()
     assert proc.returncode == 0
+
+
+def test_cot_multicast_stays_on_this_host():
+    """The TAK multicast group with TTL 0 from the loopback interface: delivered to a member on this host
+    (IP_MULTICAST_LOOP), never onto a network. Skipped where loopback takes no multicast."""
+    from uvteam_ground.bridge import CotSender
+
+    group = "239.2.3.1"
+    r = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    r.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    r.bind((group, 0))
+    r.settimeout(2.0)
+    try:
+        r.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP, socket.inet_aton(group) + socket.inet_aton("127.0.0.1"))
+    except OSError as exc:
+        r.close()
+        pytest.skip(f"no multicast on loopback here: {exc}")
+    sender = CotSender(f"udp://{group}:{r.getsockname()[1]}", ttl=0, iface="127.0.0.1")
+    try:
+        sender.send('<?xml version="1.0"?><event version="2.0" uid="t" type="a-u-G" how="m-f"/>')
+        data, src = r.recvfrom(65535)
+        assert ET.fromstring(data).get("uid") == "t" and src[0] == "127.0.0.1"
+        assert sender.sent == 1
+    finally:
+        sender.close()
+        r.close()
