@@ -211,6 +211,7 @@ class Bridge:
         self.encoder = adsb.AdsbEncoder(args.mavlink_sysid, args.mavlink_compid, args.mavlink_icao_base) \
             if args.mavlink else None
         self._geojson_dirty = False
+        self._geojson_uids: set[str] | None = None      # the crowds in the file last written
         self._last_geojson = self._last_kml = self._last_mavlink = self._last_heartbeat = -1e18
         self._last_cot: dict[str, float] = {}
         self.counts = {"crowds": 0, "fix": 0, "status": 0}
@@ -258,6 +259,9 @@ class Bridge:
 
     # ---- timers
     def tick(self, mono_s: float, now_s: float) -> None:
+        if self.geojson_path and not self._geojson_dirty and self._geojson_uids is not None:
+            # a quiet team: crowds age out of the picture with no message to say so
+            self._geojson_dirty = {c.uid for c in self.picture.snapshot(now_s).crowds} != self._geojson_uids
         if self.geojson_path and self._geojson_dirty and mono_s - self._last_geojson >= self.args.geojson_period_s:
             self.write_geojson(now_s)
             self._last_geojson = mono_s
@@ -274,9 +278,10 @@ class Bridge:
 
     # ---- files
     def write_geojson(self, now_s: float) -> None:
-        text = geojson.dumps(geojson.feature_collection(self.picture.snapshot(now_s)))
-        write_atomic(self.geojson_path, text.encode("utf-8"))
+        snap = self.picture.snapshot(now_s)
+        write_atomic(self.geojson_path, geojson.dumps(geojson.feature_collection(snap)).encode("utf-8"))
         self._geojson_dirty = False
+        self._geojson_uids = {c.uid for c in snap.crowds}
 
     def write_kml(self, now_s: float) -> None:
         text = kml.document(self.picture.snapshot(now_s), self.picture.crowd_tracks(), self.picture.vehicle_tracks())
@@ -363,6 +368,22 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     return args
 
 
+def _guarded(fn, *args) -> None:
+    """One output failing (a full disk, a file someone removed) must not stop the others: logged, at most
+    once per 10 s per kind of failure."""
+    try:
+        fn(*args)
+    except OSError as exc:
+        key = (getattr(fn, "__name__", "?"), type(exc).__name__)
+        now = time.monotonic()
+        if now - _last_io_error.get(key, -1e18) >= 10.0:
+            _last_io_error[key] = now
+            log.error("output failed in %s: %s", key[0], exc)
+
+
+_last_io_error: dict[tuple[str, str], float] = {}
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     try:
@@ -399,13 +420,12 @@ def main(argv: list[str] | None = None) -> int:
             while not stop.is_set() and time.monotonic() < t_end:
                 try:
                     handler, msg = inbox.get(timeout=0.05)
-                    handler(msg)
                     while True:                      # drain what else has arrived before the timers
+                        _guarded(handler, msg)
                         handler, msg = inbox.get_nowait()
-                        handler(msg)
                 except queue.Empty:
                     pass
-                bridge.tick(time.monotonic(), time.time())
+                _guarded(bridge.tick, time.monotonic(), time.time())
             log.info("bridge stopping: received %s, bad %d", bridge.counts, bus.rejected_total)
     finally:
         bridge.close(time.time())
