@@ -230,7 +230,8 @@ def test_cot_multicast_stays_on_this_host():
     r.bind((group, 0))
     r.settimeout(2.0)
     try:
-        r.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP, socket.inet_aton(group) + socket.inet_aton("127.0.0.1"))
+        membership = socket.inet_aton(group) + socket.inet_aton("127.0.0.1")
+        r.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP, membership)
     except OSError as exc:
         r.close()
         pytest.skip(f"no multicast on loopback here: {exc}")

@@ -37,10 +37,9 @@ def _crowd(crowd_id, lat=LAT, lon=LON, r95=2.5, ve=1.2, vn=-0.4, half_deg=2e-5, 
 def _picture():
     p = Picture("demo", max_age_s=5.0)
     p.add_status(Status("ugv1", "ugv", T0, "up", 0, 1))
-    p.add_crowds(Crowds("loc1", T0, "least_squares", ("ugv1",), (), (_crowd(3), _crowd(7, LAT + 1e-3, r95=0.0,
-                                                                                         ve=0.0, vn=0.0, half_deg=0.0))))
-    p.add_crowds(Crowds("loc1", T0 + 1.0, "least_squares", ("ugv1",), (), (_crowd(3, LAT + 1e-5), _crowd(7, LAT + 1e-3,
-                 r95=0.0, ve=0.0, vn=0.0, half_deg=0.0))))
+    still = _crowd(7, LAT + 1e-3, r95=0.0, ve=0.0, vn=0.0, half_deg=0.0)    # no footprint area, no circle
+    p.add_crowds(Crowds("loc1", T0, "least_squares", ("ugv1",), (), (_crowd(3), still)))
+    p.add_crowds(Crowds("loc1", T0 + 1.0, "least_squares", ("ugv1",), (), (_crowd(3, LAT + 1e-5), still)))
     p.add_fix(Fix("ugv1", T0 + 0.5, LAT - 1e-3, LON, 1300.0, 90.0, 0.5, 1.0, 0.0))
     p.add_fix(Fix("uav1", T0 + 0.6, LAT, LON + 1e-3, 1350.0, None, 1.5))     # heading unknown (None)
     return p
@@ -207,7 +206,8 @@ def test_kml_document_structure():
 def test_kml_empty_picture_is_still_a_document():
     p = Picture("demo")
     root = _kml_tree(kml.document(p.snapshot(T0), {}, {}))
-    assert [f.findtext(KML + "name") for f in root.find(KML + "Document").findall(KML + "Folder")] == ["Crowds", "Vehicles"]
+    folders = root.find(KML + "Document").findall(KML + "Folder")
+    assert [f.findtext(KML + "name") for f in folders] == ["Crowds", "Vehicles"]
 
 
 def test_kmz_holds_doc_kml():

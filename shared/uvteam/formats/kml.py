@@ -66,7 +66,8 @@ def _track(parent: ET.Element, points: tuple[TrackPoint, ...], absolute: bool) -
 def _describe(c: CrowdSeen) -> str:
     cr = c.crowd
     course, speed = course_speed(cr.v_east_m_s, cr.v_north_m_s)
-    return (f"crowd {cr.crowd_id} from {c.source} at {iso8601(c.stamp_s)}; MGRS {mgrs_or_empty(cr.lat_deg, cr.lon_deg)}; "
+    return (f"crowd {cr.crowd_id} from {c.source} at {iso8601(c.stamp_s)}; "
+            f"MGRS {mgrs_or_empty(cr.lat_deg, cr.lon_deg)}; "
             f"95 % radius {cr.radius95_m:.1f} m; quality {cr.quality}; speed {speed:.1f} m/s"
             + ("" if course is None else f" toward {course:.0f} deg"))
 

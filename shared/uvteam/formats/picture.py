@@ -99,7 +99,8 @@ class Picture:
             return None
         v = VehicleSeen(vehicle_uid(self.team, msg.vehicle), self.team, self._roles.get(msg.vehicle, ""), msg)
         self._vehicles[msg.vehicle] = v
-        self._append(self._vehicle_tracks, msg.vehicle, TrackPoint(msg.stamp_s, msg.lat_deg, msg.lon_deg, msg.alt_amsl_m))
+        self._append(self._vehicle_tracks, msg.vehicle,
+                     TrackPoint(msg.stamp_s, msg.lat_deg, msg.lon_deg, msg.alt_amsl_m))
         return v
 
     def add_status(self, msg: Status) -> None:
