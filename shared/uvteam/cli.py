@@ -18,6 +18,7 @@ _HELP = {
     "ugv": "a UGV service: autopilot -> fix + plan, crowds -> planner -> waypoints",
     "localizer": "the localizer service: detections + fixes + plans -> geolocated crowds",
     "tap": "print any uvteam key as JSON lines, or a live summary table",
+    "bridge": "crowds and vehicles to GeoJSON, KML/KMZ, CoT (ATAK), MAVLink (QGC/MP) and CSV",
     "router": "a zenoh router for ground stations and multi-host setups",
     "certs": "the team CA, certificates and secure zenoh configs (TLS, mTLS, access control)",
     "bench": "benchmarks: localize, vision, latency",
