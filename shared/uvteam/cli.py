@@ -18,6 +18,7 @@ _HELP = {
     "ugv": "a UGV service: autopilot -> fix + plan, crowds -> planner -> waypoints",
     "localizer": "the localizer service: detections + fixes + plans -> geolocated crowds",
     "tap": "print any uvteam key as JSON lines, or a live summary table",
+    "map": "the team on a live map in the browser (local web app, works offline)",
     "router": "a zenoh router for ground stations and multi-host setups",
     "bench": "benchmarks: localize, vision, latency",
     "experiment": "run scenario files over their seeds; write tables and plots",
