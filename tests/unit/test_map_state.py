@@ -253,6 +253,8 @@ def test_xyz_folder(tmp_path):
         (tmp_path / str(z) / str(x) / f"{y}.png").write_bytes(_png(z))
     src = open_basemap(tmp_path)
     assert (src.info.fmt, src.info.min_zoom, src.info.max_zoom) == ("png", 16, 17)
+    w, s, e, n = src.info.bounds                          # of the z 16 tile: 0.0055 deg across
+    assert w < -111.0 and e - w == pytest.approx(360 / 2**16) and s < n
     assert src.tile(17, 24001, 52001) == _png(17)
     assert src.tile(17, 24001, 52002) is None             # missing tile
 

@@ -12,6 +12,7 @@ map.mbtiles && gdaladdo map.mbtiles``.
 
 from __future__ import annotations
 
+import math
 import re
 import sqlite3
 import threading
@@ -61,7 +62,7 @@ class XyzFolder(TileSource):
                 break
         if fmt is None:
             raise ConfigError(str(path), "--basemap", "no .png, .jpg or .webp tiles under the zoom folders")
-        self.info = TileInfo(path.name, fmt, zooms[0], zooms[-1], None)
+        self.info = TileInfo(path.name, fmt, zooms[0], zooms[-1], _xyz_bounds(path / str(zooms[0]), zooms[0]))
 
     def tile(self, z: int, x: int, y: int) -> bytes | None:
         f = self.path / str(int(z)) / str(int(x)) / f"{int(y)}{self._suffix}"
@@ -69,6 +70,25 @@ class XyzFolder(TileSource):
             return f.read_bytes()
         except OSError:
             return None
+
+
+def _tile_lon_deg(x: float, z: int) -> float:
+    return x / (1 << z) * 360.0 - 180.0
+
+
+def _tile_lat_deg(y: float, z: int) -> float:
+    return math.degrees(math.atan(math.sinh(math.pi * (1 - 2 * y / (1 << z)))))
+
+
+def _xyz_bounds(zoom_dir: Path, z: int) -> tuple[float, float, float, float] | None:
+    """West, south, east, north of the tiles at one zoom (the folder's lowest: the fewest files), so the
+    page asks only for tiles that can be there."""
+    xs = [int(p.name) for p in zoom_dir.iterdir() if p.is_dir() and p.name.isdigit()]
+    ys = [int(f.stem) for x in xs for f in (zoom_dir / str(x)).iterdir() if f.stem.isdigit()]
+    if not xs or not ys:
+        return None
+    return (_tile_lon_deg(min(xs), z), _tile_lat_deg(max(ys) + 1, z), _tile_lon_deg(max(xs) + 1, z),
+            _tile_lat_deg(min(ys), z))
 
 
 class MBTiles(TileSource):

@@ -340,7 +340,8 @@
     map.setView(cfg.center || [0, 0], cfg.center ? cfg.zoom || 18 : 3);
     const bases = {};
     cfg.basemaps.forEach((b, i) => {
-      const opt = { minZoom: 2, maxZoom: 23, minNativeZoom: b.min_zoom, maxNativeZoom: b.max_zoom, attribution: esc(b.attribution || b.name) };
+      // shown from its own lowest zoom (no minNativeZoom: that would fetch deep tiles for a world view)
+      const opt = { minZoom: b.min_zoom, maxZoom: 23, maxNativeZoom: b.max_zoom, attribution: esc(b.attribution || b.name) };
       if (b.bounds) opt.bounds = [[b.bounds[1], b.bounds[0]], [b.bounds[3], b.bounds[2]]];
       bases[b.name] = L.tileLayer(b.url, opt);
       if (i === 0) bases[b.name].addTo(map);
