@@ -275,8 +275,9 @@
       const link = v.status ? esc(v.status.link) : "-";
       const note = v.status ? esc(v.status.note) : "";
       const sw = v.lat == null ? "" : `<span style="color:${v.role === "uav" ? UAV_COLOR : colorOf(v.id)}">\u25a0</span> `;
-      return `<tr class="${v.stale ? "stale" : ""}" data-vehicle="${esc(v.id)}"><td>${sw}${esc(v.id)}</td><td>${alive}</td>` +
-        `<td>${v.lat == null ? "-" : age(v.age_s)}</td><td>${link}</td><td class="note">${note}</td></tr>`;
+      const row = `<tr class="${v.stale ? "stale" : ""}" data-vehicle="${esc(v.id)}"><td>${sw}${esc(v.id)}</td><td>${alive}</td>` +
+        `<td>${v.lat == null ? "-" : age(v.age_s)}</td><td>${link}</td></tr>`;
+      return note ? row + `<tr class="note-row${v.stale ? " stale" : ""}"><td colspan="4" class="note">${note}</td></tr>` : row;
     });
     document.querySelector("#vehicles tbody").innerHTML = rows.join("");
     const crowds = st.crowds.map((c) =>
