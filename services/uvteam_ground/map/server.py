@@ -19,6 +19,7 @@ import json
 import logging
 import mimetypes
 import re
+import socket
 import sys
 import threading
 import time
@@ -88,6 +89,7 @@ class MapServer(ThreadingHTTPServer):
         self.center, self.zoom = center, zoom
         self.bus_counts = bus_counts or (lambda: {})
         self.stopping = threading.Event()
+        self.address_family = socket.AF_INET6 if ":" in addr[0] else socket.AF_INET
         super().__init__(addr, _Handler)
         self.loopback_only = addr[0] in _LOOPBACK_HOSTS or addr[0].startswith("127.")
 
