@@ -61,7 +61,7 @@ def team_bus(tcp_port):
             bus.publish(keys.key(TEAM, "ugv1", "status"), Status("ugv1", "ugv", now, "up", 0, k))
             bus.publish(keys.key(TEAM, "ugv1", "fix"), Fix("ugv1", now - 0.1, LAT - 1e-3, LON, 1300.0, 45.0, 0.4,
                                                            0.5, 0.5))
-            bus.publish(keys.key(TEAM, "uav1", "crowds"), Crowds("loc1", now - 0.2, "least_squares", ("ugv1",), (),
+            bus.publish(keys.key(TEAM, "loc1", "crowds"), Crowds("loc1", "uav1", now - 0.2, "least_squares", ("ugv1",), (),
                                                                  (_crowd(k),)))
             k += 1
             stop.wait(0.2)

@@ -50,7 +50,7 @@ def test_geojson_file_drops_crowds_of_a_quiet_team(tmp_path):
     path = tmp_path / "c.geojson"
     b = bridge.Bridge(bridge.parse_args(["--team", "t", "--geojson", str(path)]), "t")
     t0 = 1_790_000_000.0
-    b.on_crowds(Crowds("loc1", t0, "exact", (), (), (Crowd(1, 31.0, -111.0, (), (), 0.0, 0.0, 1.0, "exact", 0),)))
+    b.on_crowds(Crowds("loc1", "uav1", t0, "exact", (), (), (Crowd(1, 31.0, -111.0, (), (), 0.0, 0.0, 1.0, "exact", 0),)))
     b.tick(100.0, t0 + 0.1)
     assert [f["properties"]["kind"] for f in json.loads(path.read_text())["features"]] == ["crowd", "crowd_r95"]
     b.tick(101.0, t0 + 4.0)                       # within the default max age (5 x 1 s): unchanged

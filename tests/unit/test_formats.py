@@ -38,8 +38,8 @@ def _picture():
     p = Picture("demo", max_age_s=5.0)
     p.add_status(Status("ugv1", "ugv", T0, "up", 0, 1))
     still = _crowd(7, LAT + 1e-3, r95=0.0, ve=0.0, vn=0.0, half_deg=0.0)    # no footprint area, no circle
-    p.add_crowds(Crowds("loc1", T0, "least_squares", ("ugv1",), (), (_crowd(3), still)))
-    p.add_crowds(Crowds("loc1", T0 + 1.0, "least_squares", ("ugv1",), (), (_crowd(3, LAT + 1e-5), still)))
+    p.add_crowds(Crowds("loc1", "uav1", T0, "least_squares", ("ugv1",), (), (_crowd(3), still)))
+    p.add_crowds(Crowds("loc1", "uav1", T0 + 1.0, "least_squares", ("ugv1",), (), (_crowd(3, LAT + 1e-5), still)))
     p.add_fix(Fix("ugv1", T0 + 0.5, LAT - 1e-3, LON, 1300.0, 90.0, 0.5, 1.0, 0.0))
     p.add_fix(Fix("uav1", T0 + 0.6, LAT, LON + 1e-3, 1350.0, None, 1.5))     # heading unknown (None)
     return p
@@ -58,7 +58,7 @@ def test_picture_replaces_a_sources_crowds_and_keeps_tracks():
     assert snap.crowds[0].crowd.lat_deg == LAT + 1e-5                     # the newer frame's
     assert len(p.crowd_tracks()[crowd_uid("demo", "loc1", 3)]) == 2
     assert [v.role for v in snap.vehicles] == ["", "ugv"]                 # uav1 sent no Status
-    p.add_crowds(Crowds("loc1", T0 + 2.0, "held", (), (), ()))            # a frame with no crowds: all gone
+    p.add_crowds(Crowds("loc1", "uav1", T0 + 2.0, "held", (), (), ()))            # a frame with no crowds: all gone
     assert p.snapshot(T0 + 2.0).crowds == ()
     assert len(p.crowd_tracks()) == 2                                     # the tracks stay
 
@@ -86,7 +86,7 @@ def test_picture_track_period(period_s, steps_s, want_points):
 
 def test_picture_ignores_out_of_order_messages():
     p = _picture()
-    assert p.add_crowds(Crowds("loc1", T0 - 5.0, "exact", (), (), (_crowd(99),))) == ()
+    assert p.add_crowds(Crowds("loc1", "uav1", T0 - 5.0, "exact", (), (), (_crowd(99),))) == ()
     assert p.add_fix(Fix("ugv1", T0 - 5.0, 0.0, 0.0, 0.0, 0.0, 1.0)) is None
     assert {c.crowd.crowd_id for c in p.snapshot(T0 + 1.0).crowds} == {3, 7}
 

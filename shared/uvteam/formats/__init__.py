@@ -15,7 +15,7 @@ Mapping of every field, and how each file was checked, in docs/formats.md.
 """
 
 from . import adsb, cot, crowd_csv, geojson, kml
-from ._mgrs import latlon_to_mgrs
+from ..mgrs import latlon_to_mgrs
 from .picture import CrowdSeen, Picture, Snapshot, TrackPoint, VehicleSeen
 
 __all__ = ["Picture", "Snapshot", "CrowdSeen", "VehicleSeen", "TrackPoint", "latlon_to_mgrs",

@@ -8,7 +8,7 @@ from datetime import datetime, timezone
 import numpy as np
 
 from ..geo import LocalFrame
-from ._mgrs import latlon_to_mgrs
+from ..mgrs import latlon_to_mgrs
 
 # A 2-D isotropic Gaussian with per-axis sigma holds P(r <= k sigma) = 1 - exp(-k^2 / 2) within radius
 # k sigma (the radius is Rayleigh distributed), so its 95 % circle has k = sqrt(2 ln 20) = 2.4477.
@@ -23,8 +23,12 @@ def sigma_from_radius95(radius95_m: float) -> float:
     return float(radius95_m) * SIGMA_PER_R95
 
 
-def course_speed(v_east_m_s: float, v_north_m_s: float, min_speed_m_s: float = 0.1) -> tuple[float | None, float]:
-    """(course_deg clockwise from north in [0, 360) or None when slower than ``min_speed_m_s``, speed_m_s)."""
+def course_speed(v_east_m_s: float | None, v_north_m_s: float | None,
+                 min_speed_m_s: float = 0.1) -> tuple[float | None, float | None]:
+    """(course_deg clockwise from north in [0, 360) or None when slower than ``min_speed_m_s``, speed_m_s);
+    (None, None) when the velocity is unknown."""
+    if v_east_m_s is None or v_north_m_s is None:
+        return None, None
     speed = math.hypot(v_east_m_s, v_north_m_s)
     if speed < min_speed_m_s:
         return None, speed

@@ -81,8 +81,8 @@ def vehicle_event(v: VehicleSeen, stale_s: float) -> str:
     f = v.fix
     course, speed = course_speed(f.v_east_m_s, f.v_north_m_s)
     heading = getattr(f, "heading_deg", None)
-    if course is None:
-        course, speed = (float(heading) if heading is not None else 0.0), 0.0
+    if course is None:   # too slow to have a course, or its velocity unknown: the heading, at the speed known
+        course, speed = (float(heading) if heading is not None else 0.0), speed or 0.0
     remarks = (f"uvteam {v.role or 'vehicle'} {f.vehicle}: MGRS {mgrs_or_empty(f.lat_deg, f.lon_deg) or '-'}, "
                f"alt {f.alt_amsl_m:.1f} m AMSL, heading {'unknown' if heading is None else f'{heading:.0f} deg'}")
     return _event(v.uid, vehicle_type(v.role), "m-g", f.stamp_s, stale_s, f.lat_deg, f.lon_deg, UNKNOWN,

@@ -69,7 +69,8 @@ def vehicle_feature(v: VehicleSeen) -> dict[str, Any]:
             "properties": {"kind": "vehicle", "uid": v.uid, "vehicle": f.vehicle, "role": v.role, "stamp_s": f.stamp_s,
                            "time": iso8601(f.stamp_s), "alt_amsl_m": f.alt_amsl_m,
                            "heading_deg": None if heading is None else float(heading), "h_acc_m": f.h_acc_m,
-                           "v_east_m_s": f.v_east_m_s, "v_north_m_s": f.v_north_m_s, "speed_m_s": round(speed, 3),
+                           "v_east_m_s": f.v_east_m_s, "v_north_m_s": f.v_north_m_s,
+                           "speed_m_s": None if speed is None else round(speed, 3),
                            "mgrs": mgrs_or_empty(f.lat_deg, f.lon_deg)}}
 
 
