@@ -91,6 +91,7 @@ class Team:
                                  {v: f"udpin:127.0.0.1:{p}" for v, p in self.ports.items()}, base.system_ids)
         self.team, self.uav, self.localizer, self.ugvs = team, base.uav, base.localizer, list(base.ugvs)
         self.procs: dict[str, subprocess.Popen] = {}
+        self.args: dict[str, list[str]] = {}
         self.logs: dict[str, object] = {}
         self.log_level = log_level
         self.frames = frames
@@ -117,9 +118,18 @@ class Team:
         return BusConfig(mode="client", connect=(self.endpoint,))
 
     def _spawn(self, name: str, args: list[str]) -> None:
-        log = self.logs[name] = open(self.dir / "logs" / f"{name}.log", "wb")
+        old = self.logs.get(name)
+        if old is not None:
+            old.close()
+        log = self.logs[name] = open(self.dir / "logs" / f"{name}.log", "ab")
+        self.args[name] = args
         self.procs[name] = subprocess.Popen([*uvteam_command(), *args], stdout=log, stderr=subprocess.STDOUT,
                                             stdin=subprocess.DEVNULL, start_new_session=True)
+
+    def restart(self, name: str) -> None:
+        """Start a process again as it was started (after a kill: a vehicle's computer rebooting)."""
+        self.expected_exit.discard(name)
+        self._spawn(name, self.args[name])
 
     def start(self) -> None:
         self._spawn("router", ["router", "--zenoh-config", str(self.secrets / "router.json5")] if self.secure

@@ -36,6 +36,7 @@ class BusConfig:
     connect: tuple[str, ...] = ()
     listen: tuple[str, ...] = ()
     shared_memory: bool | None = None
+    connect_timeout_ms: int | None = None   # how long opening waits for a connect endpoint (-1: forever)
 
 
 class Bus(Protocol):

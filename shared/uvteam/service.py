@@ -16,6 +16,7 @@ import signal
 import sys
 import threading
 import time
+from dataclasses import replace
 from typing import Any, Callable, Protocol
 
 from . import keys
@@ -23,6 +24,7 @@ from .bus import Bus
 from .config import VehicleConfig
 from .errors import ConfigError, LinkError
 from .io.files import load_vehicle_config
+from .io.systemd import notify
 from .io.zenoh_bus import ZenohBus, add_bus_args, bus_config_from_args
 from .messages import Status
 
@@ -100,13 +102,35 @@ def status_of(cfg: VehicleConfig, node: Node, bus: Bus, now_s: float) -> Status:
 
 
 Worker = tuple[str, Callable[[StopFlag], None]]
+OPEN_ATTEMPT_MS = 1000       # each attempt to reach the router waits this long, so a stop is heard within 2 s
+
+
+def open_bus(cfg: VehicleConfig, stop: StopFlag) -> ZenohBus | None:
+    """The zenoh bus, retried until it opens or ``stop`` (None then): a service started before its router
+    says it is waiting, once per attempt, and stops promptly when told."""
+    attempt = replace(cfg.bus, connect_timeout_ms=OPEN_ATTEMPT_MS) if cfg.bus.connect else cfg.bus
+    tries = 0
+    while not stop.is_set():
+        try:
+            return ZenohBus.open(attempt)
+        except LinkError as exc:
+            tries += 1
+            if tries == 1 or tries % 30 == 0:
+                log.warning("cannot reach %s yet (%s); retrying until it answers or the service is stopped",
+                            ", ".join(cfg.bus.connect) or "the bus", exc.reason)
+            stop.wait(0.5)
+    return None
 
 
 def run_node(cfg: VehicleConfig, stop: StopFlag, make_node: Callable[[Bus], Node],
              shell_workers: Callable[[Node], list[Worker]] | None = None) -> int:
     """Open the zenoh bus, declare liveliness, run the node until ``stop``; status once a second.
     ``shell_workers``: loops of the shell's own I/O (a camera) that feed the node, on threads too."""
-    with ZenohBus.open(cfg.bus) as bus:
+    bus = open_bus(cfg, stop)
+    if bus is None:
+        log.info("%s %s stopped before the bus opened", cfg.role, cfg.id)
+        return 0
+    with bus:
         bus.declare_alive(keys.alive(cfg.team, cfg.id))
         node = make_node(bus)
         node.start()
@@ -116,6 +140,7 @@ def run_node(cfg: VehicleConfig, stop: StopFlag, make_node: Callable[[Bus], Node
             t.start()
         status_key = keys.key(cfg.team, cfg.id, "status")
         log.info("%s %s up (%s)", cfg.role, cfg.id, node.note() or "no data yet")
+        notify("READY=1")
         next_status = 0.0
         try:
             while not stop.is_set():
@@ -123,8 +148,10 @@ def run_node(cfg: VehicleConfig, stop: StopFlag, make_node: Callable[[Bus], Node
                 now = time.time()
                 if now >= next_status:
                     bus.publish(status_key, status_of(cfg, node, bus, now))
+                    notify("WATCHDOG=1")
                     next_status = now + STATUS_PERIOD_S
         finally:
+            notify("STOPPING=1")
             stop.set()
             for t in threads:
                 t.join(timeout=2.0)

@@ -36,6 +36,10 @@ def test_deploy_vehicle_configs_load(path):
     assert cfg.role in ("uav", "ugv", "localizer")
 
 
+UGV = '[vehicle]\nteam = "t"\nid = "u1"\nrole = "ugv"\n'
+LOC = '[vehicle]\nteam = "t"\nid = "l1"\nrole = "localizer"\n'
+
+
 @pytest.mark.parametrize(
     "text, key",
     [
@@ -45,6 +49,15 @@ def test_deploy_vehicle_configs_load(path):
         ('[vehicle]\nteam = "t"\nid = "u1"\nrole = "localizer"\n[localizer]\ngate = 3\n', "localizer.gate"),  # typo
         ('[vehicle]\nteam = "t"\nid = "u1"\nrole = "localizer"\n[localizer]\ngate_px = "3"\n', "localizer.gate_px"),
         ('[vehicle]\nteam = "t"\nrole = "localizer"\n', "vehicle.id"),                      # missing
+        (UGV + '[autopilot]\nurl = "udpin:0.0.0.0:1"\nsystem_id = 300\n', "autopilot.system_id"),  # MAVLink ids are 1-255
+        (UGV + '[autopilot]\nurl = "udpin:0.0.0.0:1"\n[ugv]\nstation_radius_m = nan\n', "ugv.station_radius_m"),  # NaN
+        (UGV + '[autopilot]\nurl = "udpin:0.0.0.0:1"\n[ugv]\nmax_speed_m_s = -1.0\n', "ugv.max_speed_m_s"),  # negative
+        (LOC + '[localizer]\ntracking_interval_s = 0\n', "localizer.tracking_interval_s"),   # a zero interval
+        (LOC + '[localizer]\nugvs = ["ugv1", 3]\n', "localizer.ugvs"),                      # an id that is no string
+        (LOC + '[localizer]\nugvs = ["ugv1", "../x"]\n', "localizer.ugvs"),                 # an id that is a path
+        (LOC + '[localizer]\nimage_coordinates = "colour"\n', "localizer.image_coordinates"),  # not a word we know
+        ('[vehicle]\nteam = "t"\nid = "uav1"\nrole = "uav"\n[autopilot]\nurl = "udpin:0.0.0.0:1"\n'
+         '[uav]\ndetector = "pixels"\ncolors = { purple = "ugv1" }\n', "uav.colors.purple"),  # an unknown color
     ],
 )
 def test_bad_vehicle_config(tmp_path, text, key):
@@ -53,6 +66,26 @@ def test_bad_vehicle_config(tmp_path, text, key):
     with pytest.raises(ConfigError) as e:
         load_vehicle_config(p)
     assert e.value.key == key and str(p) in str(e.value)
+
+
+@pytest.mark.parametrize("content", [b"\x89PNG\r\n\x1a\n\x00\xff\xfe", b"[vehicle\nteam = "])   # binary, broken TOML
+def test_unreadable_config_is_a_clear_error(tmp_path, content):
+    p = tmp_path / "v.toml"
+    p.write_bytes(content)
+    with pytest.raises(ConfigError) as e:
+        load_vehicle_config(p)
+    assert e.value.key == "<file>" and str(p) in str(e.value)
+
+
+def test_a_bad_config_exits_2_before_anything_starts(tmp_path):
+    import subprocess
+    import sys
+
+    p = tmp_path / "uav.toml"
+    p.write_text('[vehicle]\nteam = "t"\nid = "uav1"\nrole = "uav"\n[autopilot]\nurl = "udpin:127.0.0.1:9"\n'
+                 '[uav]\ndetector = "pixels"\ncolors = { purple = "ugv1" }\n')
+    r = subprocess.run([sys.executable, "-m", "uvteam", "uav", "--config", str(p)], capture_output=True, text=True, timeout=30)
+    assert r.returncode == 2 and "uav.colors.purple" in r.stderr and "unknown color" in r.stderr
 
 
 def test_planner_spreads_ugvs_non_collinear_and_in_view():
@@ -116,3 +149,42 @@ def test_ring_follows_the_crowds_heading_not_the_teams_lag(lag_deg):
     first = np.array([p.en_m[-3] for p in plans.values()]) - v          # stations, crowd-relative
     rel = np.sort((np.degrees(np.arctan2(first[:, 0], first[:, 1]) - heading) + 360.0) % 360.0)
     np.testing.assert_allclose(rel, [45.0, 135.0, 225.0, 315.0], atol=1e-6)
+
+
+# what a deployment sets for itself; everything else is tuning, which the shipped files leave at the
+# defaults that the demo and the experiment run with (uvteam.team)
+WIRING = {"bus": {"zenoh_config", "mode", "connect", "listen"},
+          "autopilot": {"url", "system_id", "component_id", "signing_key_file"},
+          "uav": {"detector", "camera", "hfov_deg", "label_side_m", "colors"},
+          "ugv": {"uav", "localizer", "team_ugvs", "station_radius_m", "max_speed_m_s", "view_half_width_m",
+                  "view_half_height_m", "camera", "camera_hfov_deg", "camera_yaw_deg", "camera_ref_distance_m",
+                  "camera_ref_box_height_px", "person_height_m"},
+          "localizer": {"uav", "ugvs", "origin_lat_deg", "origin_lon_deg"}}
+
+
+@pytest.mark.parametrize("path", sorted((REPO / "deploy" / "vehicles").glob("*.toml")), ids=lambda p: p.name)
+def test_shipped_configs_set_no_tuning_and_use_the_secure_profile(path):
+    import tomllib
+
+    raw = tomllib.loads(path.read_text())
+    for section, keys_set in raw.items():
+        if section != "vehicle":
+            assert set(keys_set) <= WIRING[section], (section, set(keys_set) - WIRING[section])
+    cfg = load_vehicle_config(path)
+    assert cfg.bus.config_file.endswith(f"secrets/border1/{cfg.id}.json5") and cfg.bus.connect[0].startswith("tls/")
+
+
+def test_team_configs_are_the_defaults_plus_wiring():
+    from dataclasses import fields
+
+    from uvteam.config import VehicleConfig
+    from uvteam.team import TeamLayout, team_configs
+
+    sc = load_scenario(SCENARIOS[0])
+    for cfg in team_configs(sc, TeamLayout.for_scenario(sc)).values():
+        default = VehicleConfig(cfg.team, cfg.id, cfg.role)
+        for section in ("autopilot", "uav", "ugv", "localizer"):
+            for f in fields(getattr(cfg, section)):
+                mine, base = getattr(getattr(cfg, section), f.name), getattr(getattr(default, section), f.name)
+                if f.name not in WIRING[section] and not (f.name == "image_coordinates" and section == "localizer"):
+                    assert mine == base or (mine != mine and base != base), (cfg.id, section, f.name)

@@ -23,9 +23,16 @@ __all__ = ["ZenohBus", "zenoh_config", "add_bus_args", "bus_config_from_args"]
 
 log = logging.getLogger(__name__)
 
+# Without a config file, what deploy/zenoh/client.json5 and peer.json5 ship: no multicast scouting, a
+# silent link declared dead after 3 s (liveliness follows), and reconnection tried every 0.25-1 s, so a
+# restarted router or peer is found again within a second of coming back.
+BUILT_IN = {"scouting/multicast/enabled": "false", "transport/link/tx/lease": "3000",
+            "connect/retry": "{period_init_ms: 250, period_max_ms: 1000, period_increase_factor: 2}"}
+
 
 def zenoh_config(cfg: BusConfig):
-    """A :class:`BusConfig` as a ``zenoh.Config`` (file first, then the explicit fields over it)."""
+    """A :class:`BusConfig` as a ``zenoh.Config`` (file first, or :data:`BUILT_IN`; then the explicit
+    fields over it)."""
     import zenoh  # noqa: PLC0415
 
     if cfg.config_file:
@@ -38,7 +45,8 @@ def zenoh_config(cfg: BusConfig):
             raise ConfigError(str(path), "zenoh config", str(exc)) from None
     else:
         conf = zenoh.Config()
-        conf.insert_json5("scouting/multicast/enabled", "false")
+        for k, v in BUILT_IN.items():
+            conf.insert_json5(k, v)
     try:
         if cfg.mode:
             if cfg.mode not in ("peer", "client", "router"):
@@ -50,6 +58,8 @@ def zenoh_config(cfg: BusConfig):
             conf.insert_json5("listen/endpoints", json.dumps(list(cfg.listen)))
         if cfg.shared_memory is not None:
             conf.insert_json5("transport/shared_memory/enabled", json.dumps(cfg.shared_memory))
+        if cfg.connect_timeout_ms is not None:
+            conf.insert_json5("connect/timeout_ms", json.dumps(cfg.connect_timeout_ms))
     except ConfigError:
         raise
     except Exception as exc:
@@ -72,7 +82,7 @@ def bus_config_from_args(args, base: BusConfig | None = None) -> BusConfig:
     base = base or BusConfig()
     return BusConfig(config_file=args.zenoh_config or base.config_file, mode=args.mode or base.mode,
                      connect=tuple(args.connect) or base.connect, listen=tuple(args.listen) or base.listen,
-                     shared_memory=base.shared_memory)
+                     shared_memory=base.shared_memory, connect_timeout_ms=base.connect_timeout_ms)
 
 
 class ZenohBus(Decoding):
