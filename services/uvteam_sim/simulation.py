@@ -60,6 +60,11 @@ class Simulation:
         self.lost_at = {int(i): float(t) for i, t in sc.events.lose_ugv}
         self.ground_amsl_m = sc.world.ground_amsl_m
         self._last_uav: tuple[float, np.ndarray] | None = None
+        # the UAV autopilot's own errors: biases for the run (a separate stream: the world's draws stay as they were)
+        self._uav_rng = np.random.default_rng([seed, 0xA77])
+        u = sc.uav
+        self._uav_bias = (self._uav_rng.normal(0, u.position_sigma_m, 2), float(self._uav_rng.normal(0, u.heading_sigma_deg)),
+                          float(self._uav_rng.normal(0, u.alt_sigma_m)))
 
     def ticks(self, duration_s: float | None = None) -> Iterator[Tick]:
         sc = self.sc
@@ -95,15 +100,22 @@ class Simulation:
                             float(v[0]), float(v[1]), h_acc, fix_type=GPS_FIX_3D)
 
     def uav_state(self, pose, t_s: float) -> VehicleState:
-        """What the UAV's autopilot reports at a frame: where the camera is, its height above home."""
+        """What the UAV's autopilot reports at a frame: where the camera is (GNSS: the run's bias plus
+        noise), its height above home and its heading (each with the run's bias), level attitude (the
+        camera hangs in a stabilised gimbal: its residual tilt, the scenario's jitter, is not reported)."""
+        u = self.sc.uav
         p = np.array([pose.east_m, pose.north_m])
         v = np.zeros(2)
         if self._last_uav is not None and t_s > self._last_uav[0]:
             v = (p - self._last_uav[1]) / (t_s - self._last_uav[0])
         self._last_uav = (t_s, p)
-        lat, lon = self.world.frame.ground_to_wgs84(pose.east_m, pose.north_m)
+        bias_en, bias_hdg, bias_alt = self._uav_bias
+        seen = p + bias_en + self._uav_rng.normal(0, 0.2 * u.position_sigma_m, 2)
+        lat, lon = self.world.frame.ground_to_wgs84(seen[0], seen[1])
+        heading = (pose.yaw_deg + bias_hdg) % 360.0
         return VehicleState(self.t0_unix_s + t_s, "autopilot", float(lat), float(lon), pose.up_m + self.ground_amsl_m,
-                            self.sc.uav.altitude_agl_m, 0.0, float(v[0]), float(v[1]), UAV_H_ACC_M, fix_type=GPS_FIX_3D)
+                            u.altitude_agl_m + bias_alt, heading, float(v[0]), float(v[1]),
+                            max(u.position_sigma_m, MIN_H_ACC_M), 0.0, 0.0, heading, fix_type=GPS_FIX_3D)
 
     def truth(self, t_s: float, seq: int, ugv_ids: list[str]) -> Truth:
         w = self.world

@@ -29,7 +29,7 @@ from typing import Any
 
 from .bus import BusConfig
 from .errors import ConfigError
-from .vocab import COLORS, DETECTORS, IMAGE_COORDINATES, ROLES, SOLVERS, is_id
+from .vocab import COLORS, DETECTORS, GIMBALS, IMAGE_COORDINATES, ROLES, SOLVERS, is_id
 
 __all__ = ["VehicleConfig", "AutopilotConfig", "UavConfig", "UgvConfig", "LocalizerServiceConfig",
            "vehicle_config_from_dict", "vehicle_config_to_toml"]
@@ -65,6 +65,16 @@ class UavConfig:
     camera: str = "zenoh"                  # frames for "pixels": "zenoh" (the bus key .../frame), device:N, a file, rtsp://, gst:
     hfov_deg: float = field(default=78.0, metadata=_num(1.0, 179.0))  # the camera's horizontal field of view (no distortion)
     label_side_m: float = field(default=1.0, metadata=POSITIVE)       # side of the UGVs' square roof labels
+    # The camera's mounting and what its pose is worth (the pose predicts where each UGV's label must be,
+    # is the localizer's prior, and places crowds when fewer than four landmarks are seen):
+    gimbal: str = field(default="stabilised", metadata=_choice(GIMBALS))  # stabilised: looks down whatever the body does
+    mount_roll_deg: float = field(default=0.0, metadata=_num(-90.0, 90.0))   # the camera's tilt from straight down
+    mount_pitch_deg: float = field(default=0.0, metadata=_num(-90.0, 90.0))  #   (the gimbal's, or the fixed mount's)
+    mount_yaw_deg: float = field(default=0.0, metadata=_num(-360.0, 360.0))  # the image top from the heading, clockwise
+    attitude_sigma_deg: float = field(default=1.0, metadata=POSITIVE)   # 1-sigma of the camera's roll and pitch
+    heading_sigma_deg: float = field(default=3.0, metadata=POSITIVE)    # ... of its yaw (compass)
+    alt_sigma_m: float = field(default=1.0, metadata=POSITIVE)          # ... of its height above ground
+    position_sigma_m: float = field(default=0.0, metadata=NON_NEGATIVE)  # ... of its position; 0: the autopilot's accuracy
 
 
 @dataclass(frozen=True)

@@ -75,6 +75,7 @@ def _design(p: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return A, b
 
 
+PRIOR_SIGMAS = 4.0      # a landmark this many sigmas from its prior makes the fit look for one that lies
 _COLLINEAR_TOL = 1e-3   # smallest/largest singular value of the centred, normalised points
 _COND_MAX = 1e7         # condition number of the normalised design matrix
 
@@ -248,14 +249,22 @@ def fit_homography(xy_px, en_m, *, min_sep_px: float = 0.5, min_sep_m: float = 0
     return Homography(H, Hinv, q, mask.copy(), rms if m > 4 else 0.0, res_m, h, A_pinv, dr, Tp, sp, sg, Tg_inv)
 
 
-def fit_homography_robust(xy_px, en_m, *, threshold_m: float, min_sep_px: float = 0.5,
-                          min_sep_m: float = 0.05) -> Homography | FitFailure:
+def fit_homography_robust(xy_px, en_m, *, threshold_m: float, min_sep_px: float = 0.5, min_sep_m: float = 0.05,
+                          prior_misfit: np.ndarray | None = None) -> Homography | FitFailure:
     """Least squares on the largest consensus set; names outlier landmarks.
 
     With the few landmarks a UGV team has (n <= 10) every 4-subset is tried (at most 210 exact fits),
     which is deterministic and cannot miss the best hypothesis as random sampling can; beyond that,
     OpenCV's USAC MAGSAC++ proposes the inliers. A landmark is an inlier when the hypothesis maps its
     pixel to within ``threshold_m`` of its ground position. n = 4 has no redundancy: plain fit.
+
+    Consensus alone cannot tell which landmark lies when several sets are as large: with 5 landmarks
+    of which one is wrong, every 4-subset fits exactly, so "drop the wrong one" and "drop a good one"
+    both leave 4 inliers and 1 outlier. ``prior_misfit`` (n,) breaks such ties: how far each landmark
+    disagrees with what was known before this frame (its distance from where a prior transform maps its
+    pixel, in its own sigmas: :func:`uvteam.localizer.fit_transform`); of the largest consensus sets,
+    the one whose members disagree least with the prior wins. Without a prior, the smallest summed
+    residual does (round-off may then decide).
     """
     p = np.asarray(xy_px, float)
     g = np.asarray(en_m, float)
@@ -265,11 +274,22 @@ def fit_homography_robust(xy_px, en_m, *, threshold_m: float, min_sep_px: float 
     full = fit_homography(p, g, min_sep_px=min_sep_px, min_sep_m=min_sep_m)
     if not full:
         return full
-    # common case first: every landmark agrees with the fit of all of them
-    if full.residual_m.max() <= threshold_m:
+    misfit = None if prior_misfit is None else np.asarray(prior_misfit, float).reshape(n)
+    # common case first: every landmark agrees with the fit of all of them (and with the prior: five
+    # landmarks leave a homography two spare degrees of freedom, enough to bend round one wrong point)
+    if full.residual_m.max() <= threshold_m and (misfit is None or misfit.max() <= PRIOR_SIGMAS):
         return full
+    if misfit is not None:   # the landmarks the prior agrees with, if they are enough and agree among themselves
+        agree = misfit <= PRIOR_SIGMAS
+        if 4 <= agree.sum() < n:
+            hyp = fit_homography(p, g, inliers=agree, min_sep_px=min_sep_px, min_sep_m=min_sep_m)
+            if hyp and hyp.residual_m[agree].max() <= threshold_m:
+                inl = hyp.residual_m <= threshold_m     # those the prior doubted but this fit does not stay in
+                fit = fit_homography(p, g, inliers=inl, min_sep_px=min_sep_px, min_sep_m=min_sep_m)
+                if fit:
+                    return fit.with_quality(FitQuality.ROBUST) if (~inl).any() else fit
     best: np.ndarray | None = None
-    best_err = np.inf
+    best_key = (np.inf, np.inf)
     if n <= 10:
         for quad in itertools.combinations(range(n), 4):
             sel = np.zeros(n, bool)
@@ -280,8 +300,10 @@ def fit_homography_robust(xy_px, en_m, *, threshold_m: float, min_sep_px: float 
             err = hyp.residual_m
             inl = err <= threshold_m
             score = float(np.where(inl, err, threshold_m).sum())
-            if best is None or inl.sum() > best.sum() or (inl.sum() == best.sum() and score < best_err):
-                best, best_err = inl, score
+            # fewest outliers first; then the set the prior agrees with, else the smallest residuals
+            key = (-int(inl.sum()), float(np.square(misfit[inl]).sum()) if misfit is not None else score)
+            if best is None or key < best_key:
+                best, best_key = inl, key
     else:
         import cv2  # noqa: PLC0415 - only needed for large landmark sets
 

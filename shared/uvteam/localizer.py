@@ -17,12 +17,18 @@ business (:mod:`uvteam.nodes.localizer`). Per frame, :func:`localize_step` runs 
 3. :func:`landmark_pixels` -- each landmark's image point: its motion blob's centre or its label's
    (``image_coordinates``), the other when the first is missing.
 4. :func:`fit_transform` -- the transform from >= 4 usable landmarks: exact (4), least squares (> 4),
-   robust with named outliers (>= 5). With fewer, the last good transform is held for ``hold_max_s``
-   and flagged HELD.
-5. :func:`claim_unseen` and :func:`map_targets` -- a UGV seen neither by label nor by an assigned blob
-   claims the blob whose box holds, or whose centre is near, its projected position; every remaining
-   blob is mapped to the ground (centre and box footprint) with a 95 % radius from the fit's propagated
-   pixel and GNSS noise, and the fit's quality flag. No estimate leaves without its flag.
+   robust with named outliers (>= 5). What was known before this frame (the last transform while it
+   is fresh, else the camera's pose) is a prior: it tells which landmark lies when several consensus
+   sets are as large, and a four-landmark fit that disagrees with it is flagged SUSPECT (its radius
+   covers the disagreement). With fewer landmarks, the last good transform is held for ``hold_max_s``
+   (HELD), else the camera's pose places the crowd (POSE: its ray onto the ground, less the bias learnt
+   against the landmark transforms while there were some, with a radius from the attitude and height).
+5. :func:`claim_blobs` and :func:`map_targets` -- every UGV whose position is known claims the blob
+   whose box holds, or whose centre is near, where the transform puts it, unless its label or its own
+   blob was found there: a UGV is never a crowd, whether its label was seen there, elsewhere (a
+   label-coloured patch taken for it) or not at all. Every remaining blob is mapped to the ground
+   (centre and box footprint) with a 95 % radius from the propagated pixel and GNSS noise, and the
+   quality flag. No estimate leaves without its flag.
 
 The pixel noise the radius propagates is what the detector declares with its detections
 (:class:`FrameObservation` ``sigma_*``), unless the config overrides it.
@@ -39,13 +45,15 @@ from .assignment import assign_greedy, assign_optimal
 from .blobs import Blobs, Landmarks
 from .geo import LocalFrame
 from .homography import FitFailure, Homography, fit_homography_robust, radius95_m
+from .pose import PosePrior
 from .vocab import IMAGE_COORDINATES, SOLVERS, FitQuality, check_choice
 
 __all__ = [
     "UgvTrack", "FrameObservation", "LocalizerConfig", "LocalizerState", "CrowdEstimate", "StepResult",
     "UgvPosition", "Pairing", "FitOutcome", "ugv_position_at", "ugv_positions", "pair_landmarks",
-    "landmark_pixels", "fit_transform", "claim_unseen", "map_targets", "localize_step", "ugv_track",
+    "landmark_pixels", "fit_transform", "claim_blobs", "map_targets", "localize_step", "ugv_track",
 ]
+R95_PER_SIGMA = 2.4477      # the 95 % circle of an isotropic 2-D Gaussian, in sigmas
 
 
 @dataclass(frozen=True, slots=True)
@@ -101,6 +109,8 @@ class FrameObservation:
     sigma_color_px: float = 0.5
     sigma_ugv_blob_px: float = 1.0
     sigma_crowd_blob_px: float = 1.5
+    pose: PosePrior | None = None           # the camera's pose in the localizer's frame, when reported
+    px_per_m: float | None = None           # image scale at the ground (focal / height), when known
 
 
 @dataclass(frozen=True, slots=True)
@@ -121,6 +131,12 @@ class LocalizerConfig:
     velocity_sigma_m_s: float = 0.1         # 1-sigma of a reported UGV velocity
     max_ugv_speed_m_s: float = 6.0          # bounds the drift of a UGV whose velocity is unknown
     extrapolate_fix_intervals: float = 1.5  # extrapolate up to this many of a track's fix intervals (+ its latency)
+    prior_max_age_s: float = 1.0            # the last transform is the prior this long, then the pose is
+    prior_sigma_m: float = 1.0              # how far the last transform maps a landmark off from frame to frame
+    prior_growth_m_s: float = 2.0           # ... growing per second of its age (the camera moves and turns)
+    suspect_sigmas: float = 4.0             # a 4-landmark fit this many sigmas from its prior is SUSPECT
+    claim_radius_m: float = 2.5             # a UGV claims blobs this close to where it is (its size and trail)
+    pose_bias_rate: float = 0.05            # how fast the pose's bias against landmark transforms is learnt
 
     def __post_init__(self) -> None:
         for what, v, choices in (("image_coordinates", self.image_coordinates, IMAGE_COORDINATES),
@@ -154,6 +170,9 @@ class LocalizerState:
     last_fit: Homography | None = None
     last_fit_stamp_s: float = -np.inf
     last_fit_sigma_m: np.ndarray | None = None  # (n,) GNSS 1-sigma of the landmarks behind last_fit
+    pose_bias_en_m: tuple[float, float] = (0.0, 0.0)  # where landmark transforms put the image centre, less the pose
+    pose_bias_var_m2: float = 0.0           # the scatter of that difference (per axis)
+    pose_bias_n: int = 0                    # frames it was learnt from
 
 
 @dataclass(frozen=True, slots=True)
@@ -196,6 +215,37 @@ class FitOutcome:
     used: tuple[str, ...]
     outliers: tuple[str, ...]
     failure: str | None
+    prior: "Prior | None" = None            # what was known before this frame (SUSPECT fits' radii use it)
+
+
+@dataclass(frozen=True, slots=True)
+class Prior:
+    """What was known of the transform before this frame: the last fresh fit (``fit``), or the camera's
+    pose less the bias learnt against landmark fits (``pose``, ``bias_en_m``, ``bias_var_m2``)."""
+
+    source: str                             # "last_fit" | "pose"
+    fit: Homography | None = None
+    fit_sigma_m: float = 0.0
+    pose: PosePrior | None = None
+    bias_en_m: np.ndarray | None = None
+    bias_var_m2: float | None = None        # None: nothing learnt yet, the pose's own error model holds
+
+    def px_to_ground(self, xy_px) -> np.ndarray:
+        if self.fit is not None:
+            return self.fit.px_to_ground(xy_px)
+        return self.pose.px_to_ground(xy_px) + self.bias_en_m
+
+    def sigma_m(self, en_m) -> np.ndarray:
+        """(N,) 1-sigma per axis of the prior at these ground points."""
+        en = np.asarray(en_m, float).reshape(-1, 2)
+        if self.fit is not None:
+            return np.full(len(en), self.fit_sigma_m)
+        model = self.pose.sigma_m(en)
+        if self.bias_var_m2 is None:
+            return model
+        # learnt: the scatter seen at the image centre, plus what the model adds off the nadir point
+        at_nadir = self.pose.sigma_m(self.pose.camera_en_m[None])[0]
+        return np.sqrt(self.bias_var_m2 + np.maximum(model ** 2 - at_nadir ** 2, 0.0))
 
 
 @dataclass(frozen=True, slots=True)
@@ -319,58 +369,122 @@ def landmark_pixels(obs: FrameObservation, pairing: Pairing, cfg: LocalizerConfi
     return out
 
 
+POSE_BIAS_MIN_FRAMES = 10   # the pose's bias counts as learnt after this many frames with a landmark fit
+
+
+def prior_of(state: LocalizerState, obs: FrameObservation, cfg: LocalizerConfig) -> Prior | None:
+    """The prior for this frame: the last fresh transform while younger than ``prior_max_age_s``, else
+    the camera's pose less its learnt bias, else none."""
+    age = obs.stamp_s - state.last_fit_stamp_s
+    if state.last_fit is not None and 0.0 <= age <= cfg.prior_max_age_s:
+        return Prior("last_fit", fit=state.last_fit, fit_sigma_m=cfg.prior_sigma_m + cfg.prior_growth_m_s * age)
+    if obs.pose is not None:
+        learnt = state.pose_bias_n >= POSE_BIAS_MIN_FRAMES
+        return Prior("pose", pose=obs.pose, bias_en_m=np.array(state.pose_bias_en_m) if learnt else np.zeros(2),
+                     bias_var_m2=state.pose_bias_var_m2 if learnt else None)
+    return None
+
+
 def fit_transform(state: LocalizerState, t_s: float, lm_px: Mapping[str, np.ndarray],
-                  positions: Mapping[str, UgvPosition], cfg: LocalizerConfig) -> FitOutcome:
-    """Phase 4: the transform from this frame's landmarks, or the last one held, or none."""
+                  positions: Mapping[str, UgvPosition], cfg: LocalizerConfig, prior: Prior | None = None) -> FitOutcome:
+    """Phase 4: the transform from this frame's landmarks (the prior breaks ties between consensus sets
+    and flags a four-landmark fit it disagrees with), or the last one held, or none."""
     used = tuple(u for u in sorted(lm_px) if u in positions)
     sig_m = np.array([positions[u].sigma_m for u in used])
     failure, outliers = None, ()
     if len(used) >= 4:
-        fit = fit_homography_robust(np.array([lm_px[u] for u in used]), np.array([positions[u].en_m for u in used]),
-                                    threshold_m=cfg.robust_threshold_m)
+        px = np.array([lm_px[u] for u in used])
+        en = np.array([positions[u].en_m for u in used])
+        misfit = None
+        if prior is not None:
+            miss = np.sqrt(((prior.px_to_ground(px) - en) ** 2).sum(1))
+            misfit = np.nan_to_num(miss / np.hypot(prior.sigma_m(en), sig_m), nan=1e6)
+        fit = fit_homography_robust(px, en, threshold_m=cfg.robust_threshold_m, prior_misfit=misfit)
         if fit:
-            return FitOutcome(fit, fit.quality, sig_m, 0.0, used, tuple(used[i] for i in fit.outliers), None)
+            quality = fit.quality
+            if len(used) == 4 and misfit is not None and misfit.max() > cfg.suspect_sigmas:
+                quality = FitQuality.SUSPECT
+            return FitOutcome(fit, quality, sig_m, 0.0, used, tuple(used[i] for i in fit.outliers), None, prior)
         failure = f"{fit.reason.value}: {fit.detail}"
     else:
         failure = f"too_few: {len(used)} usable landmarks"
     if state.last_fit is not None and 0.0 <= t_s - state.last_fit_stamp_s <= cfg.hold_max_s:
         return FitOutcome(state.last_fit, FitQuality.HELD, state.last_fit_sigma_m, t_s - state.last_fit_stamp_s,
                           used, outliers, failure)
-    return FitOutcome(None, FitQuality.FAILED, sig_m, 0.0, used, outliers, failure)
+    return FitOutcome(None, FitQuality.FAILED, sig_m, 0.0, used, outliers, failure, prior)
 
 
-def claim_unseen(fit: Homography, blobs: Blobs, positions: Mapping[str, UgvPosition], seen: set[str],
-                 cfg: LocalizerConfig) -> np.ndarray:
-    """Phase 5a: (N,) bool, the blobs claimed by UGVs seen neither by label nor by an assigned blob:
-    a blob whose box holds such a UGV's projected position, or whose centre is within the gate of it.
-    (A UGV that was seen is not looked for in other blobs: the detector carves a UGV out of a crowd it
-    drives through.)"""
-    unseen = [u for u in positions if u not in seen]
-    if not unseen or not len(blobs):
+def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, UgvPosition], pairing: Pairing,
+                cfg: LocalizerConfig) -> np.ndarray:
+    """Phase 5a: (N,) bool, the blobs claimed by UGVs where the transform puts them (``ground_to_px``).
+
+    A UGV whose label or own blob was found there (within ``claim_radius_m``, or the gate) needs no
+    claim: the detector carved it out of whatever it drives through, so a crowd's blob beside it stays a
+    crowd. Any other UGV whose position is known (its label not seen, or seen elsewhere: a patch of its
+    color on the ground) claims the blobs whose box holds that point or whose centre is near it."""
+    blobs = obs.blobs
+    if not positions or not len(blobs):
         return np.zeros(len(blobs), bool)
-    p = fit.ground_to_px(np.array([positions[u].en_m for u in unseen]))
-    box = blobs.xyxy_px
-    inside = ((p[:, None, 0] >= box[None, :, 0]) & (p[:, None, 0] <= box[None, :, 2])
-              & (p[:, None, 1] >= box[None, :, 1]) & (p[:, None, 1] <= box[None, :, 3]))
-    near = np.sqrt(((p[:, None] - blobs.xy_px[None]) ** 2).sum(-1)) <= cfg.gate_px
-    return (inside | near).any(0)
+    names = sorted(positions)
+    p = ground_to_px(np.array([positions[u].en_m for u in names]))
+    r = cfg.gate_px if obs.px_per_m is None else max(cfg.gate_px, cfg.claim_radius_m * obs.px_per_m)
+    label_px = obs.landmarks.as_dict()
+    claims = np.zeros(len(blobs), bool)
+    box, xy = blobs.xyxy_px, blobs.xy_px
+    for k, u in enumerate(names):
+        if not np.isfinite(p[k]).all():
+            continue
+        own = [np.asarray(label_px[u])] if u in label_px else []
+        if u in pairing.blob_of_ugv:
+            own.append(xy[pairing.blob_of_ugv[u]])
+        if any(np.hypot(*(q - p[k])) <= r for q in own):
+            continue
+        inside = (p[k, 0] >= box[:, 0]) & (p[k, 0] <= box[:, 2]) & (p[k, 1] >= box[:, 1]) & (p[k, 1] <= box[:, 3])
+        claims |= inside | (np.sqrt(((xy - p[k]) ** 2).sum(1)) <= r)
+    return claims
 
 
 def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landmark_px: float,
-                sigma_target_px: float, cfg: LocalizerConfig) -> tuple[CrowdEstimate, ...]:
+                sigma_target_px: float, cfg: LocalizerConfig, px_per_m: float | None = None) -> tuple[CrowdEstimate, ...]:
     """Phase 5b: the target blobs (indices) on the ground with their 95 % radii and footprints. A point
     beyond the horizon of a bad transform is dropped: never a NaN on the map."""
-    if not len(targets) or fit.fit is None:
+    if not len(targets):
         return ()
-    h = fit.fit
-    en, cov = h.map_points_with_cov(blobs.xy_px[targets], sigma_target_px, sigma_landmark_px, fit.sigma_m)
-    r95 = radius95_m(cov) + (cfg.held_growth_m_s * fit.age_s if fit.quality == FitQuality.HELD else 0.0)
     corners = blobs.xyxy_px[targets][:, [0, 1, 2, 1, 2, 3, 0, 3]].reshape(-1, 2)
-    fp = h.px_to_ground(corners).reshape(-1, 4, 2)
-    n_out = int((~h.inliers).sum())
+    if fit.quality == FitQuality.POSE:
+        prior = fit.prior
+        en = prior.px_to_ground(blobs.xy_px[targets])
+        fp = prior.px_to_ground(corners).reshape(-1, 4, 2)
+        s_t = sigma_target_px / px_per_m if px_per_m else 0.0
+        r95 = R95_PER_SIGMA * np.sqrt(prior.sigma_m(en) ** 2 + s_t ** 2)
+        n_out = 0
+    else:
+        h = fit.fit
+        en, cov = h.map_points_with_cov(blobs.xy_px[targets], sigma_target_px, sigma_landmark_px, fit.sigma_m)
+        r95 = radius95_m(cov) + (cfg.held_growth_m_s * fit.age_s if fit.quality == FitQuality.HELD else 0.0)
+        if fit.quality == FitQuality.SUSPECT:   # the fit or its prior is wrong: the radius covers both
+            off = np.sqrt(((en - fit.prior.px_to_ground(blobs.xy_px[targets])) ** 2).sum(1))
+            r95 = np.maximum(r95, off + R95_PER_SIGMA * fit.prior.sigma_m(en))
+        fp = h.px_to_ground(corners).reshape(-1, 4, 2)
+        n_out = int((~h.inliers).sum())
     finite = np.isfinite(en).all(1) & np.isfinite(r95) & np.isfinite(fp).all((1, 2))
     return tuple(CrowdEstimate(int(targets[k]), float(en[k, 0]), float(en[k, 1]), fp[k], float(r95[k]), fit.quality,
                                n_out, float(blobs.area_px[targets[k]])) for k in np.flatnonzero(finite))
+
+
+def learn_pose_bias(state: LocalizerState, fit: Homography, pose: PosePrior, cfg: LocalizerConfig) -> LocalizerState:
+    """With a fresh landmark fit and a pose: where the fit puts the pose's nadir point, less that point,
+    averaged over frames (its scatter too), so that POSE placements carry the pose's bias no more."""
+    nadir_px = pose.ground_to_px(pose.camera_en_m[None])
+    d = fit.px_to_ground(nadir_px)[0] - pose.camera_en_m
+    if not np.isfinite(d).all():
+        return state
+    n = state.pose_bias_n + 1
+    a = max(cfg.pose_bias_rate, 1.0 / n)
+    b = np.array(state.pose_bias_en_m)
+    b_new = b + a * (d - b)
+    var = (1 - a) * state.pose_bias_var_m2 + a * float(((d - b_new) ** 2).mean()) if n > 1 else 0.0
+    return replace(state, pose_bias_en_m=(float(b_new[0]), float(b_new[1])), pose_bias_var_m2=var, pose_bias_n=n)
 
 
 def localize_step(state: LocalizerState, obs: FrameObservation, tracks: Mapping[str, UgvTrack],
@@ -380,14 +494,20 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: Mapping[
     positions = ugv_positions(tracks, t, cfg)
     pairing = pair_landmarks(state, obs, cfg)
     lm_px = landmark_pixels(obs, pairing, cfg)
-    fit = fit_transform(state, t, lm_px, positions, cfg)
+    prior = prior_of(state, obs, cfg)
+    fit = fit_transform(state, t, lm_px, positions, cfg, prior)
+    if fit.fit is None and prior is not None and prior.source == "pose":
+        fit = replace(fit, quality=FitQuality.POSE)
     crowds: tuple[CrowdEstimate, ...] = ()
-    if fit.fit is not None and len(obs.blobs):
-        seen = set(obs.landmarks.ugv) | set(pairing.blob_of_ugv)
-        is_ugv = pairing.is_ugv | claim_unseen(fit.fit, obs.blobs, positions, seen, cfg)
+    if (fit.fit is not None or fit.quality == FitQuality.POSE) and len(obs.blobs):
+        if fit.fit is not None:
+            to_px = fit.fit.ground_to_px
+        else:
+            to_px = lambda en: obs.pose.ground_to_px(np.asarray(en) - prior.bias_en_m)  # noqa: E731
+        is_ugv = pairing.is_ugv | claim_blobs(to_px, obs, positions, pairing, cfg)
         is_ugv[list(pairing.blob_of_ugv.values())] = True
         s_lm, s_tg = cfg.sigmas_px(obs)
-        crowds = map_targets(fit, obs.blobs, np.flatnonzero(~is_ugv), s_lm, s_tg, cfg)
+        crowds = map_targets(fit, obs.blobs, np.flatnonzero(~is_ugv), s_lm, s_tg, cfg, obs.px_per_m)
     fresh = fit.fit is not None and fit.quality != FitQuality.HELD
     xy = obs.blobs.xy_px
     new_state = replace(
@@ -395,6 +515,8 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: Mapping[
         blob_px_of_ugv=tuple((u, float(xy[j][0]), float(xy[j][1])) for u, j in sorted(pairing.blob_of_ugv.items())),
         last_fit=fit.fit if fresh else state.last_fit, last_fit_stamp_s=t if fresh else state.last_fit_stamp_s,
         last_fit_sigma_m=fit.sigma_m if fresh else state.last_fit_sigma_m)
+    if fresh and obs.pose is not None and fit.quality != FitQuality.SUSPECT:
+        new_state = learn_pose_bias(new_state, fit.fit, obs.pose, cfg)
     result = StepResult(t, fit.quality, crowds, fit.used, fit.outliers, pairing.blob_of_ugv,
                         {u: p.source for u, p in positions.items()}, fit.age_s, fit.failure)
     return new_state, result

@@ -37,7 +37,7 @@ from .errors import MessageError
 from .vocab import QUALITIES, SERVICES, is_id
 
 __all__ = [
-    "Fix", "Waypoint", "Plan", "Detections", "Frame", "Person", "PeopleSeen", "Crowd", "Crowds", "TruthCrowd",
+    "Fix", "Waypoint", "Plan", "CameraPoseReport", "Detections", "Frame", "Person", "PeopleSeen", "Crowd", "Crowds", "TruthCrowd",
     "TruthUgv", "Truth", "Status", "encode", "decode", "as_dict", "MESSAGE_TYPES", "BY_TOPIC", "ENCODING",
     "encoding_of", "MAX_LIST", "MAX_BLOBS",
 ]
@@ -105,6 +105,29 @@ class Plan:
         _rule(all(a <= b for a, b in zip(s, s[1:])), "waypoints", "waypoint times must not go backwards")
 
 
+@dataclass(frozen=True, slots=True)
+class CameraPoseReport:
+    """Where the UAV camera was and how it looked at a frame's capture time, as the autopilot and the
+    gimbal report it, with what each value is worth (1-sigma). ``yaw_deg``: the image top, clockwise
+    from north; ``roll_deg``/``pitch_deg``: the optical axis' tilt from straight down."""
+
+    SCHEMA: ClassVar[str] = "camera_pose/1"
+    lat_deg: float
+    lon_deg: float
+    alt_agl_m: float
+    roll_deg: float
+    pitch_deg: float
+    yaw_deg: float
+    sigma_position_m: float
+    sigma_attitude_deg: float
+    sigma_yaw_deg: float
+    sigma_alt_m: float
+
+    def _rules(self) -> None:
+        _rule(-90.0 <= self.roll_deg <= 90.0 and -90.0 <= self.pitch_deg <= 90.0, "roll_deg",
+              "expected roll and pitch in [-90, 90]")
+
+
 @dataclass(frozen=True, slots=True, eq=False)
 class Detections:
     """One UAV frame's roof-label landmarks and motion blobs, with what the detector's positions are
@@ -125,6 +148,7 @@ class Detections:
     sigma_color_px: float       # a roof label's centre
     sigma_ugv_blob_px: float    # a UGV's motion-blob centre
     sigma_crowd_blob_px: float  # a crowd's motion-blob centre, against its members' centroid
+    pose: CameraPoseReport | None = None   # the camera's pose, when the UAV knows it
 
     def _rules(self) -> None:
         _rule(len(self.blobs) <= MAX_BLOBS, "blobs", f"at most {MAX_BLOBS} blobs in a frame, got {len(self.blobs)}")
@@ -278,7 +302,7 @@ class Status:
         _rule(self.link in ("up", "down", "none"), "link", "expected up, down or none")
 
 
-MESSAGE_TYPES = (Fix, Waypoint, Plan, Detections, Frame, Person, PeopleSeen, Crowd, Crowds, TruthCrowd, TruthUgv,
+MESSAGE_TYPES = (Fix, Waypoint, Plan, CameraPoseReport, Detections, Frame, Person, PeopleSeen, Crowd, Crowds, TruthCrowd, TruthUgv,
                  Truth, Status)
 # which message each topic carries (uvteam.keys.TOPICS)
 BY_TOPIC = {"fix": Fix, "plan": Plan, "detections": Detections, "sensor": Detections, "people": PeopleSeen,
@@ -329,7 +353,7 @@ def _range(schema: str, name: str, v: float) -> None:
     elif name.endswith("lon_deg"):
         if not -180.0 <= v <= 180.0:
             raise bad("expected longitude in [-180, 180]")
-    elif name in ("heading_deg", "bearing_deg"):
+    elif name in ("heading_deg", "bearing_deg", "yaw_deg"):
         if not 0.0 <= v < 360.0:
             raise bad("expected a heading in [0, 360)")
     elif name.endswith("_acc_m") or name.startswith("sigma_") or name in ("radius95_m", "distance_m", "alt_agl_m"):

@@ -7,7 +7,7 @@ half-read. Format: ../shared/scenarios/README.md.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import MISSING, dataclass, fields
 
 from uvteam.errors import ConfigError
 
@@ -37,6 +37,11 @@ class Uav:
     follow_time_constant_s: float
     hover_wobble_m: float
     gimbal_jitter_deg: float
+    # The errors of what the UAV's autopilot reports of its pose (optional; 0 = exact, as in the paper's
+    # simulation and in files written before these fields):
+    position_sigma_m: float = 0.0      # GNSS, per axis: a bias for the run plus a fifth of it per frame
+    heading_sigma_deg: float = 0.0     # compass: a bias for the run
+    alt_sigma_m: float = 0.0           # height above ground: a bias for the run
 
 
 @dataclass(frozen=True)
@@ -121,6 +126,8 @@ def _section(cls, data, src: str, where: str):
     kw = {}
     for f in fields(cls):
         if f.name not in data:
+            if f.default is not MISSING:
+                continue
             raise ConfigError(src, f"{where}.{f.name}", "missing")
         v = _tuplify(data[f.name])
         if f.type in ("float",) and not isinstance(v, (int, float)):
@@ -175,4 +182,7 @@ def _validate(sc: Scenario, src: str) -> None:
     for e in sc.events.lose_ugv:
         need(len(e) == 2 and 0 <= int(e[0]) < sc.ugvs.count, "events.lose_ugv", "[[ugv_index, at_s]]")
     need(0 <= sc.camera.jpeg_quality <= 100, "camera.jpeg_quality", "0-100")
+    for k in ("position_sigma_m", "heading_sigma_deg", "alt_sigma_m"):
+        v = getattr(sc.uav, k)
+        need(math.isfinite(v) and v >= 0, f"uav.{k}", ">= 0")
     need(math.isnan(sc.paper_mean_error_m) or sc.paper_mean_error_m > 0, "paper_mean_error_m", "> 0 or nan")

@@ -6,6 +6,8 @@ carry. Configs and messages are checked against these at load or decode; code co
 - ``DETECTORS``: how the UAV service finds what it reports ("pixels": its camera through the vision
   pipeline; "sim-sensor": the simulator's sensor model, for runs without pixels);
 - ``IMAGE_COORDINATES``: which centre a landmark uses in the fit (the motion blob's or the roof label's);
+- ``GIMBALS``: how the UAV camera is mounted ("stabilised": it looks down whatever the body does, and
+  turns with the heading; "fixed": it tilts with the body);
 - ``SOLVERS``: the landmark-to-blob assignment (optimal, or the paper's greedy heuristic);
 - ``COLORS``: the roof-label colors the vision pipeline can find (:mod:`uvteam.vision.landmarks` holds
   their HSV ranges, keyed by these names);
@@ -19,7 +21,7 @@ import re
 from typing import Literal
 
 __all__ = ["ID_PATTERN", "is_id", "ROLES", "Role", "SERVICES", "DETECTORS", "Detector", "IMAGE_COORDINATES",
-           "ImageCoordinates", "SOLVERS", "Solver", "COLORS", "Color", "FitQuality", "check_choice"]
+           "ImageCoordinates", "SOLVERS", "Solver", "COLORS", "Color", "FitQuality", "check_choice", "GIMBALS", "Gimbal"]
 
 ID_PATTERN = re.compile(r"^[A-Za-z0-9_-]{1,32}$")
 
@@ -35,6 +37,8 @@ Detector = Literal["pixels", "sim-sensor"]
 DETECTORS: tuple[Detector, ...] = ("pixels", "sim-sensor")
 ImageCoordinates = Literal["motion", "color"]
 IMAGE_COORDINATES: tuple[ImageCoordinates, ...] = ("motion", "color")
+Gimbal = Literal["stabilised", "fixed"]
+GIMBALS: tuple[Gimbal, ...] = ("stabilised", "fixed")
 Solver = Literal["optimal", "greedy"]
 SOLVERS: tuple[Solver, ...] = ("optimal", "greedy")
 Color = Literal["red", "yellow", "green", "cyan", "blue", "magenta"]
@@ -45,7 +49,9 @@ class FitQuality(str, enum.Enum):
     EXACT = "exact"                  # n = 4, the system is square
     LEAST_SQUARES = "least_squares"  # n > 4, all landmarks used
     ROBUST = "robust"                # n >= 5, outlier landmarks named and left out
+    SUSPECT = "suspect"              # n = 4 and the transform disagrees with what was known before (radius says so)
     HELD = "held"                    # too few landmarks this frame: an earlier transform reused
+    POSE = "pose"                    # too few landmarks: placed by the camera's pose (attitude, height) alone
     FAILED = "failed"                # no usable transform
 
 

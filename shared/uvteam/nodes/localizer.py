@@ -38,6 +38,7 @@ from ..crowds import GroupingConfig, GroupingState, ReportedCrowd, report_crowds
 from ..geo import LocalFrame
 from ..localizer import FrameObservation, LocalizerConfig, LocalizerState, UgvTrack, localize_step, ugv_track
 from ..messages import Crowd, Crowds, Detections, Fix, Plan
+from ..pose import pose_prior
 from ..service import LatestSlot, StopFlag
 from . import Counts, sender_ok
 
@@ -207,8 +208,9 @@ class LocalizerNode:
             keep = np.sort(np.argsort(-blobs.area_px, kind="stable")[: self.lc.max_blobs])
             self.counts.add("blobs_dropped", len(blobs) - len(keep))
             blobs = blobs[keep]
+        pose = None if det.pose is None else pose_prior(det.pose, self.frame, det.width_px, det.height_px, det.focal_px)
         return FrameObservation(det.stamp_s, det.landmarks, blobs, det.sigma_color_px, det.sigma_ugv_blob_px,
-                                det.sigma_crowd_blob_px)
+                                det.sigma_crowd_blob_px, pose, det.focal_px / det.alt_agl_m if det.alt_agl_m > 0 else None)
 
     def process(self, det: Detections) -> Crowds | None:
         """One frame: the core step, the crowd grouping, and the Crowds message (published)."""

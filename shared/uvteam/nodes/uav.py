@@ -8,6 +8,12 @@ Detectors (``[uav].detector``, :data:`uvteam.vocab.DETECTORS`):
   camera and height (:func:`uvteam.detector_noise.pixel_pipeline_noise`).
 - "sim-sensor": the simulator's sensor-model detections (``.../sensor``), relabelled and passed on.
 Roof colors are mapped to UGV ids with ``[uav].colors``; colors not in the table are not our team's.
+
+The camera's pose (:meth:`UavNode.pose_report`: the autopilot's position, height, heading and, with a
+fixed mount, attitude; the mounting and the sigmas from ``[uav]``) goes with every frame's detections.
+With the team's fixes (subscribed) it also tells the vision where each UGV's roof label must be
+(:meth:`UavNode.expectations`): a label-colored patch on the ground elsewhere is never taken for a UGV;
+why a color's blobs were refused is counted in the status (``labels_refused_<why>``).
 """
 
 from __future__ import annotations
@@ -28,15 +34,21 @@ from ..camera import PinholeCamera
 from ..config import VehicleConfig
 from ..detector_noise import pixel_pipeline_noise
 from ..frames import FrameError, frame_pixels
-from ..messages import Detections, Frame
+from ..geo import LocalFrame
+from ..messages import CameraPoseReport, Detections, Fix, Frame
+from ..pose import pose_prior
 from ..service import LatestSlot, StopFlag
-from ..vision.uav import UavVision, UavVisionConfig
+from ..vision.uav import LabelExpectation, UavVision, UavVisionConfig
 from . import Counts, sender_ok
 
 __all__ = ["UavNode", "MIN_ALT_AGL_M"]
 
 log = logging.getLogger("uvteam.uav")
 MIN_ALT_AGL_M = 1.0        # below this the autopilot's height above ground is not one to size blobs by
+FIX_FRESH_S = 2.0          # a UGV fix older than this predicts nothing
+MOVING_M_S = 0.5           # a UGV reporting more than this moves: its label rides on motion
+PREDICTION_SIGMAS = 3.0
+DEFAULT_POSITION_SIGMA_M = 2.0
 
 
 class UavNode:
@@ -50,25 +62,43 @@ class UavNode:
         self.size: tuple[int, int] | None = None
         self.last_state_stamp = 0.0
         self.det_key = keys.key(cfg.team, cfg.id, "detections")
-        self.counts = Counts("frames", "processed", "no_altitude", "bad_frames", "fixes_published")
+        self.counts = Counts("frames", "processed", "no_altitude", "bad_frames", "fixes_published", "no_pose")
+        self.refusals = Counts()
+        self.frame_en: LocalFrame | None = None
+        self.ugv_fix: dict[str, Fix] = {}
+        self.ugv_of_color = dict(self.u.colors)
         self.vision_ms: deque[float] = deque(maxlen=500)
         self._warn = RateLimitedLog(log)
 
     def start(self) -> None:
+        self.bus.subscribe(keys.all_vehicles(self.cfg.team, "fix"), Fix, self.on_fix)
         if self.u.detector == "sim-sensor":
             self.bus.subscribe(keys.key(self.cfg.team, self.cfg.id, "sensor"), Detections, self.on_sensor)
         elif self.u.camera == "zenoh":
             self.bus.subscribe(keys.key(self.cfg.team, self.cfg.id, "frame"), Frame, self.on_frame)
 
     # --- inputs ----------------------------------------------------------------------------------------
+    def on_fix(self, key: str, fix: Fix) -> None:
+        """The team's UGV fixes: where each roof label must be."""
+        if fix.vehicle not in self.ugv_of_color.values():
+            return
+        if not sender_ok(key, fix.vehicle):
+            self.bus.reject(key, f"a fix for {fix.vehicle} under another vehicle's key")
+            return
+        old = self.ugv_fix.get(fix.vehicle)
+        if old is None or fix.stamp_s > old.stamp_s:
+            self.ugv_fix[fix.vehicle] = fix
+
     def on_sensor(self, key: str, det: Detections) -> None:
         """The sensor model's detections (by roof color) -> this UAV's detections (by UGV id)."""
         if not sender_ok(key, det.vehicle, self.cfg.id):
             self.bus.reject(key, f"sensor detections for {det.vehicle} under another vehicle's key")
             return
         self.counts.add("frames")
+        st = self.autopilot.state()
+        pose = self.pose_report(st) if st is not None else None
         self.bus.publish(self.det_key, replace(det, vehicle=self.cfg.id, landmarks=det.landmarks.relabel(self.u.colors),
-                                               blobs=det.blobs.relabel(self.u.colors)))
+                                               blobs=det.blobs.relabel(self.u.colors), pose=pose))
         self.counts.add("processed")
 
     def on_frame(self, key: str, fr: Frame) -> None:
@@ -91,6 +121,47 @@ class UavNode:
         self.bus.publish(keys.key(self.cfg.team, self.cfg.id, "fix"), fix_from_state(self.cfg.id, st))
         self.counts.add("fixes_published")
 
+    def pose_report(self, st) -> CameraPoseReport | None:
+        """The camera's pose from the autopilot's state and the mounting (None without a heading)."""
+        heading = st.yaw_deg if st.yaw_deg is not None else st.heading_deg
+        if heading is None or not math.isfinite(st.alt_agl_m):
+            return None
+        u = self.u
+        roll, pitch = u.mount_roll_deg, u.mount_pitch_deg
+        if u.gimbal == "fixed":   # the camera tilts with the body
+            roll, pitch = roll + (st.roll_deg or 0.0), pitch + (st.pitch_deg or 0.0)
+        pos = u.position_sigma_m or (st.h_acc_m if st.h_acc_m is not None else DEFAULT_POSITION_SIGMA_M)
+        return CameraPoseReport(st.lat_deg, st.lon_deg, max(st.alt_agl_m, 0.0), max(-90.0, min(90.0, roll)),
+                                max(-90.0, min(90.0, pitch)), (heading + u.mount_yaw_deg) % 360.0, pos,
+                                u.attitude_sigma_deg, u.heading_sigma_deg, u.alt_sigma_m)
+
+    def expectations(self, report: CameraPoseReport | None, now_s: float, w: int, h: int,
+                     focal_px: float) -> dict[str, LabelExpectation]:
+        """Where each UGV's roof label must be in this frame: its fresh fix through the camera's pose,
+        within 3 sigma of the pose, the fix and the distance the UGV covered since its fix."""
+        if report is None:
+            return {}
+        if self.frame_en is None:
+            self.frame_en = LocalFrame(report.lat_deg, report.lon_deg)
+        prior = pose_prior(report, self.frame_en, w, h, focal_px)
+        if prior is None:
+            return {}
+        px_per_m = focal_px / max(report.alt_agl_m, MIN_ALT_AGL_M)
+        out = {}
+        for color, ugv in self.ugv_of_color.items():
+            f = self.ugv_fix.get(ugv)
+            if f is None or not 0.0 <= now_s - f.stamp_s <= FIX_FRESH_S:
+                continue
+            en = np.array([self.frame_en.wgs84_to_ground(f.lat_deg, f.lon_deg)], float)
+            speed = math.hypot(f.v_east_m_s or 0.0, f.v_north_m_s or 0.0)
+            sigma = math.sqrt(float(prior.sigma_m(en)[0]) ** 2 + f.h_acc_m ** 2 + (speed * (now_s - f.stamp_s)) ** 2)
+            xy = prior.ground_to_px(en)[0]
+            if np.isfinite(xy).all():
+                out[color] = LabelExpectation((float(xy[0]), float(xy[1])),
+                                              max(PREDICTION_SIGMAS * sigma, 2.0 * self.u.label_side_m) * px_per_m,
+                                              speed > MOVING_M_S)
+        return out
+
     def process_frame(self, stamp_s: float, seq: int, img: np.ndarray) -> Detections | None:
         """One image through the vision pipeline at the autopilot's height above ground -> detections."""
         st = self.autopilot.state()
@@ -103,13 +174,19 @@ class UavNode:
             self.size = (w, h)
             self.vision = UavVision(UavVisionConfig(focal_px=PinholeCamera(w, h, self.u.hfov_deg).focal_px,
                                                     colors=tuple(self.u.colors), label_side_m=self.u.label_side_m))
+        focal = self.vision.cfg.focal_px
+        report = self.pose_report(st)
+        if report is None:
+            self.counts.add("no_pose")
         t0 = time.perf_counter()
-        r = self.vision.update(img, stamp_s, st.alt_agl_m)
+        r = self.vision.update(img, stamp_s, st.alt_agl_m, self.expectations(report, stamp_s, w, h, focal))
         self.vision_ms.append((time.perf_counter() - t0) * 1e3)
-        noise = pixel_pipeline_noise(st.alt_agl_m, self.vision.cfg.focal_px)
-        det = Detections(self.cfg.id, stamp_s, seq, w, h, st.alt_agl_m, self.vision.cfg.focal_px,
+        for why in r.refused.values():
+            self.refusals.add(why)
+        noise = pixel_pipeline_noise(st.alt_agl_m, focal)
+        det = Detections(self.cfg.id, stamp_s, seq, w, h, st.alt_agl_m, focal,
                          r.landmarks.relabel(self.u.colors), r.blobs.relabel(self.u.colors),
-                         noise.color_px, noise.ugv_blob_px, noise.crowd_blob_px)
+                         noise.color_px, noise.ugv_blob_px, noise.crowd_blob_px, report)
         self.bus.publish(self.det_key, det)
         self.counts.add("processed")
         return det
@@ -144,6 +221,7 @@ class UavNode:
 
     def metrics(self) -> dict[str, float]:
         out = {**self.counts.as_dict(), "dropped": float(self.frames.dropped)}
+        out.update({f"labels_refused_{k}": v for k, v in self.refusals.as_dict().items()})
         if self.vision_ms:
             out["vision_ms_p50"] = float(np.median(self.vision_ms))
         return out

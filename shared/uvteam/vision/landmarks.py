@@ -12,7 +12,10 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-__all__ = ["ColorRange", "DEFAULT_COLORS", "LandmarkConfig", "detect_landmarks"]
+__all__ = ["ColorRange", "DEFAULT_COLORS", "LandmarkConfig", "detect_landmarks", "LabelCandidate", "label_candidates",
+           "MAX_CANDIDATES"]
+
+MAX_CANDIDATES = 4   # label-sized blobs of one color kept per frame (largest first)
 
 
 @dataclass(frozen=True, slots=True)
@@ -39,28 +42,64 @@ class LandmarkConfig:
     max_area_px: float = 20_000.0
 
 
-def detect_landmarks(frame_bgr: np.ndarray, cfg: LandmarkConfig, wanted: tuple[str, ...] | None = None
-                     ) -> dict[str, tuple[float, float]]:
-    """color name -> (x_px, y_px) centre of its largest blob, for the colors present."""
-    hsv = cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2HSV)
-    out = {}
-    for name in wanted or tuple(cfg.colors):
-        cr = cfg.colors.get(name)
-        if cr is None:
+@dataclass(frozen=True, slots=True)
+class LabelCandidate:
+    """A label-sized blob of one roof color: where, and how many pixels."""
+
+    color: str
+    x_px: float
+    y_px: float
+    area_px: float
+
+
+def _color_mask(hsv: np.ndarray, cr: ColorRange) -> np.ndarray:
+    mask = None
+    for lo, hi in cr.hue_ranges:
+        m = cv2.inRange(hsv, (lo, cr.s_min, cr.v_min), (hi, 255, 255))
+        mask = m if mask is None else mask | m
+    return mask
+
+
+def label_candidates(frame_bgr: np.ndarray, cfg: LandmarkConfig, wanted: tuple[str, ...] | None = None,
+                     windows: dict[str, tuple[int, int, int, int]] | None = None) -> list[LabelCandidate]:
+    """Every label-sized blob (``min_area_px`` to ``max_area_px``) of each wanted color, up to
+    ``MAX_CANDIDATES`` per color, largest first. ``windows``: color -> (x0, y0, x1, y1) in pixels: that
+    color is looked for only there (a UGV tracked from frame to frame; the whole frame is converted to
+    HSV only when some wanted color has no window)."""
+    windows = windows or {}
+    h_img, w_img = frame_bgr.shape[:2]
+    names = list(wanted or tuple(cfg.colors))
+    for name in names:
+        if name not in cfg.colors:
             raise KeyError(f"no HSV range for color {name!r}; known: {', '.join(cfg.colors)}")
-        mask = None
-        for lo, hi in cr.hue_ranges:
-            m = cv2.inRange(hsv, (lo, cr.s_min, cr.v_min), (hi, 255, 255))
-            mask = m if mask is None else mask | m
+    full = cv2.cvtColor(frame_bgr, cv2.COLOR_BGR2HSV) if any(n not in windows for n in names) else None
+    out: list[LabelCandidate] = []
+    for name in names:
+        cr = cfg.colors[name]
+        if name in windows:
+            x0, y0, x1, y1 = windows[name]
+            x0, y0, x1, y1 = max(0, int(x0)), max(0, int(y0)), min(w_img, int(x1)), min(h_img, int(y1))
+            if x1 <= x0 or y1 <= y0:
+                continue
+            hsv = full[y0:y1, x0:x1] if full is not None else cv2.cvtColor(frame_bgr[y0:y1, x0:x1], cv2.COLOR_BGR2HSV)
+        else:
+            x0, y0, hsv = 0, 0, full
+        mask = _color_mask(hsv, cr)
         if cv2.countNonZero(mask) < cfg.min_area_px:
             continue
-        x0, y0, w, h = cv2.boundingRect(mask)   # labelling only where the color is: ~20x faster
-        n, _, stats, cents = cv2.connectedComponentsWithStats(mask[y0:y0 + h, x0:x0 + w], connectivity=8)
-        best, best_area = None, 0
-        for i in range(1, n):
-            a = stats[i, cv2.CC_STAT_AREA]
-            if cfg.min_area_px <= a <= cfg.max_area_px and a > best_area:
-                best, best_area = i, a
-        if best is not None:
-            out[name] = (float(cents[best][0]) + x0, float(cents[best][1]) + y0)
+        bx, by, bw, bh = cv2.boundingRect(mask)   # labelling only where the color is: ~20x faster
+        n, _, stats, cents = cv2.connectedComponentsWithStats(mask[by:by + bh, bx:bx + bw], connectivity=8)
+        found = [(int(stats[i, cv2.CC_STAT_AREA]), i) for i in range(1, n)
+                 if cfg.min_area_px <= stats[i, cv2.CC_STAT_AREA] <= cfg.max_area_px]
+        for area, i in sorted(found, reverse=True)[:MAX_CANDIDATES]:
+            out.append(LabelCandidate(name, float(cents[i][0]) + bx + x0, float(cents[i][1]) + by + y0, float(area)))
+    return out
+
+
+def detect_landmarks(frame_bgr: np.ndarray, cfg: LandmarkConfig, wanted: tuple[str, ...] | None = None
+                     ) -> dict[str, tuple[float, float]]:
+    """color name -> (x_px, y_px) centre of its largest blob, for the colors present (no other knowledge)."""
+    out: dict[str, tuple[float, float]] = {}
+    for c in label_candidates(frame_bgr, cfg, wanted):
+        out.setdefault(c.color, (c.x_px, c.y_px))   # largest first
     return out

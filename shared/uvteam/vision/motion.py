@@ -225,6 +225,19 @@ class MotionDetector:
     def reset(self) -> None:
         self._prev = self._prev_c = self._stamp_s = self._age = self._busy = None
 
+    def moved_near(self, xy_px: np.ndarray) -> np.ndarray | None:
+        """(N,) bool: whether each full-resolution point lies on what moved in the previous frame (its
+        blobs, widened by the joining kernel); None before there is a previous frame."""
+        if self._busy is None:
+            return None
+        s = self.cfg.process_scale
+        p = np.round((np.asarray(xy_px, float).reshape(-1, 2) + 0.5) * s - 0.5).astype(int)
+        h, w = self._busy.shape
+        ok = (p[:, 0] >= 0) & (p[:, 0] < w) & (p[:, 1] >= 0) & (p[:, 1] < h)
+        out = np.zeros(len(p), bool)
+        out[ok] = self._busy[p[ok, 1], p[ok, 0]] > 0
+        return out
+
     def update(self, frame: np.ndarray, stamp_s: float, carve_xy_px: np.ndarray | None = None,
                carve_radius_px: float = 0.0) -> MotionResult:
         """Blobs moving in ``frame``. ``carve_xy_px`` (full-resolution points, e.g. color-detected

@@ -18,16 +18,19 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..blobs import Blobs, Landmarks
-from .landmarks import LandmarkConfig, detect_landmarks
+from .landmarks import LabelCandidate, LandmarkConfig, label_candidates
 from .motion import MotionConfig, MotionDetector, Registration, bounds_for_altitude
 
-__all__ = ["UavVisionConfig", "UavVision", "UavFrameResult", "landmark_config"]
+__all__ = ["UavVisionConfig", "UavVision", "UavFrameResult", "LabelExpectation", "landmark_config"]
 
 FULL_RES_BELOW_PERSON_PX = 3.0   # process at full resolution when a person would be smaller than this
 RECONFIGURE_ALTITUDE_CHANGE = 0.15  # rebuild the detector when the altitude changes by more than this fraction
 LABEL_AREA_RANGE = (0.25, 4.0)   # a roof label's blob is this fraction to multiple of the label's area
 LABEL_AREA_SLACK_PX = 25.0       # ... plus this much (blur and edge pixels of a small label)
 MIN_LABEL_AREA_PX = 3.0
+TRACK_KEEP_S = 0.5               # a label found this recently is looked for near where it was
+MAX_UGV_SPEED_M_S = 6.0          # ... within the distance a UGV can cover since, plus a label's size
+ACQUIRE_EVERY = 10               # every this many frames the whole frame is searched, not only windows
 
 
 @dataclass(frozen=True, slots=True)
@@ -54,11 +57,21 @@ class UavVisionConfig:
 
 
 @dataclass(frozen=True, slots=True)
+class LabelExpectation:
+    """Where a UGV's roof label must be, from its fix through the camera's pose."""
+
+    xy_px: tuple[float, float]
+    radius_px: float              # 3 sigma of the prediction
+    moving: bool                  # the UGV reports it moves: its label rides on motion
+
+
+@dataclass(frozen=True, slots=True)
 class UavFrameResult:
     stamp_s: float
     landmarks: Landmarks          # by roof color
     blobs: Blobs                  # ``ugv``: the roof color of the vehicle a blob is, or ""
     registration: Registration    # the camera motion the blobs rest on
+    refused: dict = field(default_factory=dict)   # color -> why its label-colored blobs were not taken
 
 
 def landmark_config(cfg: UavVisionConfig, alt_agl_m: float) -> LandmarkConfig:
@@ -76,6 +89,8 @@ class UavVision:
         self._alt_m: float | None = None
         self._motion: MotionDetector | None = None
         self._lm_cfg = cfg.landmarks
+        self._tracked: dict[str, tuple[float, float, float]] = {}   # color -> (stamp, x, y) of its last label
+        self._frames = 0
 
     def _configure(self, alt_agl_m: float) -> None:
         cfg = self.cfg
@@ -93,13 +108,87 @@ class UavVision:
     def motion_config(self) -> MotionConfig | None:
         return None if self._motion is None else self._motion.cfg
 
-    def update(self, frame_bgr: np.ndarray, stamp_s: float, alt_agl_m: float) -> UavFrameResult:
+    def update(self, frame_bgr: np.ndarray, stamp_s: float, alt_agl_m: float,
+               expect: dict[str, LabelExpectation] | None = None) -> UavFrameResult:
+        """One frame: roof labels (each color's label-sized blobs, the one that agrees with what is known
+        of its UGV: :meth:`_choose`), then motion blobs with the labelled vehicles carved out."""
         if not (np.isfinite(alt_agl_m) and alt_agl_m > 1.0):
             raise ValueError(f"alt_agl_m must be a finite height above 1 m, got {alt_agl_m}")
         if self._alt_m is None or abs(alt_agl_m - self._alt_m) > RECONFIGURE_ALTITUDE_CHANGE * self._alt_m:
             self._configure(alt_agl_m)
-        lms = Landmarks.from_dict(detect_landmarks(frame_bgr, self._lm_cfg, self.cfg.colors))
-        motion = self._motion.update(frame_bgr, stamp_s, lms.xy_px, self.cfg.vehicle_radius_m * self.cfg.focal_px / alt_agl_m)
+        px_per_m = self.cfg.focal_px / alt_agl_m
+        expect = expect or {}
+        windows = self._windows(stamp_s, px_per_m, expect)
+        cands = label_candidates(frame_bgr, self._lm_cfg, self.cfg.colors, windows)
+        chosen, refused = self._choose(cands, stamp_s, px_per_m, expect)
+        lms = Landmarks.from_dict(chosen)
+        motion = self._motion.update(frame_bgr, stamp_s, lms.xy_px, self.cfg.vehicle_radius_m * px_per_m)
         b = motion.blobs
         blobs = Blobs(b.xy_px, b.xyxy_px, b.area_px, tuple(lms.ugv[c] if c >= 0 else "" for c in motion.carved))
-        return UavFrameResult(stamp_s, lms, blobs, motion.registration)
+        return UavFrameResult(stamp_s, lms, blobs, motion.registration, refused)
+
+    def _reach_px(self, stamp_s: float, since_s: float, px_per_m: float) -> float:
+        return (MAX_UGV_SPEED_M_S * max(stamp_s - since_s, 0.0) + 2.0 * self.cfg.label_side_m) * px_per_m
+
+    def _windows(self, stamp_s: float, px_per_m: float, expect: dict[str, LabelExpectation]) -> dict:
+        """Where to look for each color this frame: around its expected and its last place (the whole
+        frame every ``ACQUIRE_EVERY`` frames, and for a color with neither)."""
+        self._frames += 1
+        if self._frames % ACQUIRE_EVERY == 1:
+            return {}
+        out = {}
+        for color in self.cfg.colors:
+            boxes = []
+            if color in expect:
+                (x, y), r = expect[color].xy_px, expect[color].radius_px
+                boxes.append((x - r, y - r, x + r, y + r))
+            last = self._tracked.get(color)
+            if last is not None and stamp_s - last[0] <= TRACK_KEEP_S:
+                r = self._reach_px(stamp_s, last[0], px_per_m)
+                boxes.append((last[1] - r, last[2] - r, last[1] + r, last[2] + r))
+            if not boxes:
+                return {}           # a color to acquire: the whole frame is converted anyway
+            b = np.array(boxes)
+            out[color] = (b[:, 0].min(), b[:, 1].min(), b[:, 2].max(), b[:, 3].max())
+        return out
+
+    def _choose(self, cands: list[LabelCandidate], stamp_s: float, px_per_m: float,
+                expect: dict[str, LabelExpectation]) -> tuple[dict[str, tuple[float, float]], dict[str, str]]:
+        """Each color's label: of its label-sized blobs, the one where its UGV's fix says it is (within
+        the prediction's 3 sigma) and, when the UGV moves, on what moved; without a prediction, the one
+        nearest where the label was last frame, else (acquiring) the largest on what moved, else the
+        largest. A color whose blobs all fail is not seen this frame, and why is said."""
+        chosen: dict[str, tuple[float, float]] = {}
+        refused: dict[str, str] = {}
+        by_color: dict[str, list[LabelCandidate]] = {}
+        for c in cands:
+            by_color.setdefault(c.color, []).append(c)
+        for color, cs in by_color.items():
+            xy = np.array([[c.x_px, c.y_px] for c in cs])
+            moved = self._motion.moved_near(xy) if self._motion is not None else None
+            e = expect.get(color)
+            last = self._tracked.get(color)
+            if e is not None:
+                d = np.hypot(*(xy - e.xy_px).T)
+                ok = d <= e.radius_px
+                if not ok.any():
+                    refused[color] = "far_from_fix"
+                    continue
+                if e.moving and moved is not None:
+                    if not (ok & moved).any():
+                        refused[color] = "not_moving"
+                        continue
+                    ok &= moved
+                k = int(np.argmin(np.where(ok, d, np.inf)))
+            elif last is not None and stamp_s - last[0] <= TRACK_KEEP_S:
+                d = np.hypot(xy[:, 0] - last[1], xy[:, 1] - last[2])
+                if d.min() > self._reach_px(stamp_s, last[0], px_per_m):
+                    refused[color] = "jumped"
+                    continue
+                k = int(np.argmin(d))
+            else:
+                k = int(np.flatnonzero(moved)[0]) if moved is not None and moved.any() else 0   # largest first
+            chosen[color] = (float(xy[k, 0]), float(xy[k, 1]))
+        for color, (x, y) in chosen.items():
+            self._tracked[color] = (stamp_s, x, y)
+        return chosen, refused
