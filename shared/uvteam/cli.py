@@ -24,6 +24,7 @@ _HELP = {
     "certs": "the team CA, certificates and secure zenoh configs (TLS, mTLS, access control)",
     "bench": "benchmarks: localize, vision, latency",
     "experiment": "run scenario files over their seeds; write tables and plots",
+    "process": "the UAV pipeline and the localizer offline on a recorded flight (video + fixes CSV)",
 }
 
 
