@@ -347,8 +347,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     join = ["--zenoh-config", str(team.secrets / "view.json5")] if team.secure else ["--connect", team.endpoint]
     tap = " ".join(uvteam_command() + ["tap", "--summary", "--team", team.team, *join])
+    mapcmd = " ".join(uvteam_command() + ["map", "--team", team.team, *join])
     print(f"uvteam demo: {team.sc.name}, {len(team.ugvs)} UGVs, {team.duration_s:.0f} s; router {team.endpoint}\n"
-          f"  configs and logs: {team.dir}\n  watch from another terminal: {tap}", flush=True)
+          f"  configs and logs: {team.dir}\n  watch from another terminal: {tap}\n"
+          f"  or on a map (then open http://127.0.0.1:8770/): {mapcmd}", flush=True)
     summary, codes = run_demo(team, stop, live=not args.quiet)
     print_summary(team, summary, codes)
     if args.json:

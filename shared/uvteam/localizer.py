@@ -44,7 +44,7 @@ import numpy as np
 from .assignment import assign_greedy, assign_optimal
 from .blobs import Blobs, Landmarks
 from .geo import LocalFrame
-from .homography import FitFailure, Homography, fit_homography_robust, radius95_m
+from .homography import Homography, fit_homography_robust, radius95_m
 from .pose import PosePrior
 from .vocab import IMAGE_COORDINATES, SOLVERS, FitQuality, check_choice
 
@@ -130,7 +130,8 @@ class LocalizerConfig:
     min_sigma_m: float = 0.02               # floor on a fix's sigma (a reported 0 is not perfection)
     velocity_sigma_m_s: float = 0.1         # 1-sigma of a reported UGV velocity
     max_ugv_speed_m_s: float = 6.0          # bounds the drift of a UGV whose velocity is unknown
-    extrapolate_fix_intervals: float = 1.5  # extrapolate up to this many of a track's fix intervals (+ its latency)
+    extrapolate_fix_intervals: float = 1.5  # extrapolate up to this many of a track's fix intervals (+ its latency,
+    max_fix_latency_s: float = 0.5          #   counted up to this: later fixes leave the UGV to its plan)
     prior_max_age_s: float = 1.0            # the last transform is the prior this long, then the pose is
     prior_sigma_m: float = 1.0              # how far the last transform maps a landmark off from frame to frame
     prior_growth_m_s: float = 2.0           # ... growing per second of its age (the camera moves and turns)
@@ -275,7 +276,8 @@ def _interp_path(stamps: np.ndarray, en: np.ndarray, t: float) -> np.ndarray:
 def _extrapolate_s(track: UgvTrack, cfg: LocalizerConfig) -> float:
     fs = track.fix_stamp_s
     interval = float(np.median(np.diff(fs[-8:]))) if len(fs) >= 2 else 0.0
-    return max(cfg.fix_extrapolate_s, cfg.extrapolate_fix_intervals * interval + track.fix_latency_s)
+    return max(cfg.fix_extrapolate_s,
+               cfg.extrapolate_fix_intervals * interval + min(track.fix_latency_s, cfg.max_fix_latency_s))
 
 
 def ugv_position_at(track: UgvTrack, t_s: float, cfg: LocalizerConfig) -> UgvPosition | None:

@@ -12,12 +12,11 @@ from __future__ import annotations
 
 import argparse
 import logging
-import signal
 import sys
 import threading
 import time
 from dataclasses import replace
-from typing import Any, Callable, Protocol
+from typing import Callable, Protocol
 
 from . import keys
 from .bus import Bus
@@ -27,6 +26,7 @@ from .io.files import load_vehicle_config
 from .io.systemd import notify
 from .io.zenoh_bus import ZenohBus, add_bus_args, bus_config_from_args
 from .messages import Status
+from .sync import LatestSlot, StopFlag
 
 __all__ = ["service_main", "run_node", "Node", "StopFlag", "LatestSlot", "setup_logging", "STATUS_PERIOD_S"]
 
@@ -38,49 +38,6 @@ STEP_TIMEOUT_S = 0.02
 def setup_logging(name: str, level: str = "INFO") -> None:
     logging.basicConfig(level=getattr(logging, level.upper(), logging.INFO), stream=sys.stderr,
                         format=f"%(asctime)s {name} %(levelname)s %(name)s: %(message)s", force=True)
-
-
-class StopFlag:
-    """Set by SIGINT or SIGTERM (or by the caller); services poll it or wait on it."""
-
-    def __init__(self, install: bool = True) -> None:
-        self.event = threading.Event()
-        if install and threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                signal.signal(sig, lambda *_: self.event.set())
-
-    def is_set(self) -> bool:
-        return self.event.is_set()
-
-    def wait(self, timeout: float) -> bool:
-        return self.event.wait(timeout)
-
-    def set(self) -> None:
-        self.event.set()
-
-
-class LatestSlot:
-    """One waiting item; a newer one replaces it (counted in ``dropped``): work never falls behind."""
-
-    def __init__(self) -> None:
-        self._cv = threading.Condition()
-        self._item: Any = None
-        self.dropped = 0
-
-    def put(self, item: Any) -> None:
-        with self._cv:
-            if self._item is not None:
-                self.dropped += 1
-            self._item = item
-            self._cv.notify()
-
-    def take(self, timeout_s: float) -> Any:
-        """The waiting item (None when none came within ``timeout_s``; 0 does not wait)."""
-        with self._cv:
-            if self._item is None and timeout_s > 0:
-                self._cv.wait(timeout_s)
-            item, self._item = self._item, None
-            return item
 
 
 class Node(Protocol):

@@ -5,7 +5,6 @@ positions written as a fixes CSV with one bad row), processed by the real comman
 writes are scored against the crowd's true centroid at each frame's time."""
 
 import csv
-import json
 import subprocess
 import sys
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from uvteam.localizer import localize_step
+from uvteam.localizer import LocalizerConfig, localize_step
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "localizer_steps.pkl.gz"
 
@@ -23,7 +23,7 @@ def _steps():
 @pytest.mark.parametrize("k", range(31))
 def test_step_gives_the_recorded_result(k):
     state, obs, tracks, cfg, (want_state, want) = _steps()[k]
-    got_state, got = localize_step(state, obs, tracks, cfg)
+    got_state, got = localize_step(state, obs, tracks, LocalizerConfig(**cfg))   # new fields: their defaults
     assert got.quality == want.quality and got.landmarks_used == want.landmarks_used
     assert got.outlier_landmarks == want.outlier_landmarks and got.blob_of_ugv == want.blob_of_ugv
     assert len(got.crowds) == len(want.crowds)

@@ -16,7 +16,7 @@ from uvteam.bus import InMemoryBus
 from uvteam.camera import CameraPose, PinholeCamera, project
 from uvteam.config import LocalizerServiceConfig, UavConfig, UgvConfig, VehicleConfig
 from uvteam.geo import LocalFrame
-from uvteam.messages import Crowd, Crowds, Detections, Fix, Plan, Waypoint
+from uvteam.messages import Crowd, Crowds, Detections, Fix, Plan
 from uvteam.nodes.localizer import LocalizerNode
 from uvteam.nodes.uav import UavNode
 from uvteam.nodes.ugv import UgvNode

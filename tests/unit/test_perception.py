@@ -2,7 +2,6 @@
 landmark that lies, a UGV that is never a crowd, and the camera's pose as prior and fallback."""
 
 import numpy as np
-import pytest
 
 from uvteam.blobs import Blobs, Landmarks
 from uvteam.camera import CameraPose, PinholeCamera, project

@@ -31,7 +31,6 @@ from collections.abc import Callable
 import numpy as np
 
 from .. import keys
-from ..blobs import Blobs
 from ..bus import Bus
 from ..config import LocalizerServiceConfig, VehicleConfig
 from ..crowds import GroupingConfig, GroupingState, ReportedCrowd, report_crowds
@@ -39,7 +38,7 @@ from ..geo import LocalFrame
 from ..localizer import FrameObservation, LocalizerConfig, LocalizerState, UgvTrack, localize_step, ugv_track
 from ..messages import Crowd, Crowds, Detections, Fix, Plan
 from ..pose import pose_prior
-from ..service import LatestSlot, StopFlag
+from ..sync import LatestSlot, StopFlag
 from . import Counts, sender_ok
 
 __all__ = ["LocalizerNode", "refuse_fix", "localizer_config"]

@@ -37,7 +37,7 @@ from ..frames import FrameError, frame_pixels
 from ..geo import LocalFrame
 from ..messages import CameraPoseReport, Detections, Fix, Frame
 from ..pose import pose_prior
-from ..service import LatestSlot, StopFlag
+from ..sync import LatestSlot, StopFlag
 from ..vision.uav import LabelExpectation, UavVision, UavVisionConfig
 from . import Counts, sender_ok
 

@@ -39,7 +39,7 @@ from ..geo import LocalFrame
 from ..messages import Crowds, Fix, PeopleSeen, Person
 from ..mission import mission_to_plan, plan_to_mission
 from ..planning import plan_stations
-from ..service import LatestSlot, StopFlag
+from ..sync import LatestSlot, StopFlag
 from ..ugv_localize import focal_px_from_reference, localize_people
 from . import Counts, sender_ok
 
