@@ -29,6 +29,9 @@ browser:
 test: $(STAMP) browser
 	$(BIN)/python -m pytest -q
 
+fuzz: $(STAMP)   # the decoders' and the MAVLink ingest's fuzz tests, longer than in CI
+	UVTEAM_FUZZ_EXAMPLES=5000 $(BIN)/python -m pytest -q tests/unit/test_fuzz_decoders.py tests/unit/test_mavlink_fuzz.py
+
 unit: $(STAMP)
 	$(BIN)/python -m pytest -q tests/unit
 
