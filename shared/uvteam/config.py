@@ -120,7 +120,8 @@ class LocalizerServiceConfig:
     max_fix_skew_s: float = field(default=1.0, metadata=POSITIVE)     # a fix stamped further in the future is refused
     max_fix_age_s: float = field(default=30.0, metadata=POSITIVE)     # ... and one older than this on arrival
     max_h_acc_m: float = field(default=10.0, metadata=POSITIVE)       # ... and one less accurate than this
-    max_blobs: int = field(default=256, metadata=_num(1, 2000))       # blobs per frame looked at (the largest)
+    max_blobs: int = field(default=64, metadata=_num(1, 2000))        # blobs per frame looked at (the largest):
+    # six UGVs, a few crowds and their parts fit many times over; what a frame costs stays bounded
 
 
 @dataclass(frozen=True)

@@ -108,29 +108,31 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
         return i
 
     trails = [{round(s[0], 3): (s[1], s[2]) for s in t.trail} for t in tracks]
-    for i in range(n):
-        for j in range(i + 1, n):
-            a, b = tracks[i], tracks[j]
-            pair = (min(a.track_id, b.track_id), max(a.track_id, b.track_id))
-            if pair in apart:
-                continue
-            dist = np.hypot(a.east_m - b.east_m, a.north_m - b.north_m)
-            near = dist < cfg.near_m
-            if not near and boxes_en is not None and areas is not None \
-                    and min(areas[i], areas[j]) <= cfg.straggler_ratio * max(areas[i], areas[j]):
-                gap = np.maximum(0.0, np.maximum(boxes_en[i, :2] - boxes_en[j, 2:], boxes_en[j, :2] - boxes_en[i, 2:]))
-                near = bool(np.hypot(*gap) <= cfg.near_gap_m)
-            if not near:
-                if dist >= cfg.apart_m:
-                    apart.add(pair)
-                continue
-            if _rel_speed_m_s(trails[i], trails[j], stamp_s, cfg) > cfg.max_rel_speed_m_s:
-                new_streak[pair] = streak.get(pair, 0) + 1
-                if new_streak[pair] >= cfg.apart_frames:
-                    apart.add(pair)
-                    del new_streak[pair]
-            else:                          # not significant, or NaN (not seen apart long enough): one crowd
-                parent[root(j)] = root(i)
+    en = np.array([[t.east_m, t.north_m] for t in tracks], float).reshape(-1, 2)
+    dist = np.sqrt(((en[:, None] - en[None]) ** 2).sum(-1))
+    near = dist < cfg.near_m
+    if boxes_en is not None and areas is not None and n:
+        a = np.asarray(areas, float)
+        small = np.minimum(a[:, None], a[None]) <= cfg.straggler_ratio * np.maximum(a[:, None], a[None])
+        lo, hi = boxes_en[:, :2], boxes_en[:, 2:]
+        gap = np.maximum(0.0, np.maximum(lo[:, None] - hi[None], lo[None] - hi[:, None]))
+        near |= small & (np.sqrt((gap ** 2).sum(-1)) <= cfg.near_gap_m)
+    far = ~near & (dist >= cfg.apart_m)
+    ids = [t.track_id for t in tracks]
+    for i, j in np.argwhere(np.triu(near | far, 1)).tolist():   # in (i, j) order, as pairs were always taken
+        pair = (min(ids[i], ids[j]), max(ids[i], ids[j]))
+        if pair in apart:
+            continue
+        if far[i, j]:
+            apart.add(pair)
+            continue
+        if _rel_speed_m_s(trails[i], trails[j], stamp_s, cfg) > cfg.max_rel_speed_m_s:
+            new_streak[pair] = streak.get(pair, 0) + 1
+            if new_streak[pair] >= cfg.apart_frames:
+                apart.add(pair)
+                del new_streak[pair]
+        else:                          # not significant, or NaN (not seen apart long enough): one crowd
+            parent[root(j)] = root(i)
     return [root(i) for i in range(n)], frozenset(apart), new_streak
 
 

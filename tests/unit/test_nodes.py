@@ -138,10 +138,10 @@ def test_detections_only_from_its_uav_and_bounded(loc):
     peer.publish(keys.key(TEAM, "uav1", "detections"), detections(T0 + 1.0, vehicle="uav2"))
     node.step(0.0)
     assert out == [] and sum(node.bus.rejected.values()) == 1
-    # 1000 small noise blobs beside the team: only the largest max_blobs (256) are looked at; the crowd stays
+    # 1000 small noise blobs beside the team: only the largest max_blobs (64) are looked at; the crowd stays
     peer.publish(keys.key(TEAM, "uav1", "detections"), detections(T0 + 1.0, n_noise=1000))
     node.step(0.0)
-    assert node.metrics()["blobs_dropped"] == len(UGVS) + 1 + 1000 - 256
+    assert node.metrics()["blobs_dropped"] == len(UGVS) + 1 + 1000 - 64
     assert any(np.hypot(*np.subtract(FRAME.wgs84_to_ground(c.lat_deg, c.lon_deg), CROWD)) < 1e-3 for c in out[-1].crowds)
 
 
