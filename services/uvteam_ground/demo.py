@@ -53,7 +53,8 @@ def free_port(kind: int = socket.SOCK_STREAM) -> int:
         return s.getsockname()[1]
 
 
-def _wait_port(port: int, timeout_s: float) -> bool:
+def wait_port(port: int, timeout_s: float = 15.0) -> bool:
+    """Whether something accepts TCP connections on 127.0.0.1:``port`` within ``timeout_s``."""
     end = time.monotonic() + timeout_s
     while time.monotonic() < end:
         with socket.socket() as s:
@@ -134,7 +135,7 @@ class Team:
     def start(self) -> None:
         self._spawn("router", ["router", "--zenoh-config", str(self.secrets / "router.json5")] if self.secure
                     else ["router", "--listen", self.endpoint])
-        if not _wait_port(self.router_port, 15.0):
+        if not wait_port(self.router_port, 15.0):
             raise RuntimeError(f"the router did not come up; see {self.dir / 'logs' / 'router.log'}")
         ll = ["--log-level", self.log_level]
         self._spawn("localizer", ["localizer", "--config", str(self.dir / f"{self.localizer}.toml"), *ll])

@@ -12,7 +12,6 @@ import signal
 import socket
 import subprocess
 import sys
-import threading
 import time
 
 import pytest
@@ -21,7 +20,9 @@ from uvteam import keys
 from uvteam.io.zenoh_bus import ZenohBus
 from uvteam.messages import Crowds, Fix, Plan
 from uvteam.service import StopFlag
-from uvteam_ground.demo import DEFAULT_SCENARIO, Team, _wait_port, run_demo
+
+from scripted import run_scripted
+from uvteam_ground.demo import DEFAULT_SCENARIO, Team, wait_port
 
 pytestmark = pytest.mark.integration
 RECOVER_S = 2.0
@@ -64,21 +65,14 @@ def faulty_run(tmp_path_factory):
                 p.wait(timeout=5)
                 team.restart(name)
                 if name == "router":
-                    _wait_port(team.router_port, 10.0)
+                    wait_port(team.router_port, 10.0)
             elif act == "stop":
                 os.killpg(p.pid, signal.SIGSTOP)
             elif act == "cont":
                 os.killpg(p.pid, signal.SIGCONT)
             rec["acts"][(act, name)] = time.time()
 
-    th = threading.Thread(target=script, daemon=True)
-    th.start()
-    try:
-        summary, codes = run_demo(team, stop, live=False, out=open(d / "view.txt", "w"))
-    finally:
-        th.join(timeout=5)
-        if "probe" in holder:
-            holder["probe"].close()
+    summary, codes = run_scripted(team, stop, script, holder, d / "view.txt")
     return team, summary, codes, rec
 
 

@@ -21,12 +21,11 @@ import pytest
 import zenoh
 
 from uvteam import keys
-from uvteam.bus import BusConfig
 from uvteam.io.zenoh_bus import ZenohBus
 from uvteam.messages import Fix
 from uvteam.service import StopFlag
 from uvteam_ground import certs
-from uvteam_ground.demo import DEFAULT_SCENARIO, Team, run_demo
+from uvteam_ground.demo import DEFAULT_SCENARIO, Team, run_demo, wait_port
 
 pytestmark = pytest.mark.integration
 REPO = Path(__file__).resolve().parents[2]
@@ -37,16 +36,6 @@ def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
-
-
-def _wait_port(port: int, timeout_s: float = 15.0) -> bool:
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        with socket.socket() as s:
-            if s.connect_ex(("127.0.0.1", port)) == 0:
-                return True
-        time.sleep(0.05)
-    return False
 
 
 def _uvteam(*args, cwd, log):
@@ -87,7 +76,7 @@ class Secure:
             os.chdir(cwd)
         self.log = open(d / "router.log", "wb")
         self.router = _uvteam("router", "--zenoh-config", "secrets/router.json5", cwd=d, log=self.log)
-        if not _wait_port(self.port):
+        if not wait_port(self.port):
             _stop(self.router)
             raise RuntimeError("router did not come up:\n" + (d / "router.log").read_text())
         self.sessions: list = []
@@ -345,7 +334,7 @@ def test_router_listens_where_its_config_says(tmp_path):
     with open(tmp_path / "router.log", "wb") as log:
         p = _uvteam("router", "--zenoh-config", str(conf), cwd=tmp_path, log=log)
         try:
-            assert _wait_port(port), (tmp_path / "router.log").read_text()
+            assert wait_port(port), (tmp_path / "router.log").read_text()
             c = zenoh.Config.from_json5(f'{{mode:"client", scouting:{{multicast:{{enabled:false}}}}, '
                                         f'connect:{{endpoints:["tcp/127.0.0.1:{port}"], timeout_ms:3000}}}}')
             with zenoh.open(c) as s:

@@ -7,7 +7,6 @@ for one tracking interval and then dropped; a UGV service killed with SIGKILL se
 within 1 s, after which the localizer carries on with the remaining landmarks.
 """
 
-import threading
 import time
 from pathlib import Path
 
@@ -19,7 +18,9 @@ from uvteam.bus import BusConfig
 from uvteam.io.zenoh_bus import ZenohBus
 from uvteam.messages import Crowds, Frame, Truth
 from uvteam.service import StopFlag
-from uvteam_ground.demo import DEFAULT_SCENARIO, Team, run_demo
+from uvteam_ground.demo import DEFAULT_SCENARIO, Team
+
+from scripted import run_scripted
 
 pytestmark = pytest.mark.integration
 REPO = Path(__file__).resolve().parents[2]
@@ -90,14 +91,7 @@ def team_run(tmp_path_factory):
         record["kill_wall"] = time.time()
         team.kill("ugv6")
 
-    th = threading.Thread(target=script, daemon=True)
-    th.start()
-    try:
-        summary, codes = run_demo(team, stop, live=False, out=open(d / "view.txt", "w"))
-    finally:
-        th.join(timeout=5)
-        if "probe" in holder:
-            holder["probe"].close()
+    summary, codes = run_scripted(team, stop, script, holder, d / "view.txt")
     return team, summary, codes, record
 
 
