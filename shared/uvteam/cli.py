@@ -20,6 +20,7 @@ _HELP = {
     "tap": "print any uvteam key as JSON lines, or a live summary table",
     "bridge": "crowds and vehicles to GeoJSON, KML/KMZ, CoT (ATAK), MAVLink (QGC/MP) and CSV",
     "map": "the team on a live map in the browser (local web app, works offline)",
+    "protocol": "write the protocol's JSON Schemas and reference, generated from the message definitions",
     "router": "a zenoh router for ground stations and multi-host setups",
     "certs": "the team CA, certificates and secure zenoh configs (TLS, mTLS, access control)",
     "bench": "benchmarks: localize, vision, latency",

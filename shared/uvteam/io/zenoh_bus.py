@@ -93,7 +93,7 @@ class ZenohBus(Decoding):
         self._zenoh = zenoh
         self.session = session
         self._encoding = zenoh.Encoding(messages.ENCODING)
-        self._pubs: dict[str, Any] = {}
+        self._pubs: dict[tuple[str, type], Any] = {}
         self._subs: list[Any] = []
         self._tokens: list[Any] = []
         self._closed = False
@@ -116,19 +116,22 @@ class ZenohBus(Decoding):
         self.close()
 
     def publish(self, key: str, msg: Any, *, express: bool = True) -> None:
+        """Encode, validate and put ``msg`` on ``key``; zenoh's encoding names its schema
+        (``application/msgpack;crowds/2``), so a receiver can tell what came without decoding it."""
         raw = messages.encode(msg)
-        pub = self._pubs.get(key)
+        pub = self._pubs.get((key, type(msg)))
         if pub is None:
             pub = self.session.declare_publisher(
-                key, encoding=self._encoding, express=express,
+                key, encoding=self._zenoh.Encoding(messages.encoding_of(type(msg))), express=express,
                 congestion_control=self._zenoh.CongestionControl.BLOCK)
-            self._pubs[key] = pub
+            self._pubs[(key, type(msg))] = pub
         pub.put(raw)
         self.published += 1
 
-    def put_raw(self, key: str, raw: bytes) -> None:
-        """Send arbitrary bytes (tests and fault injection only)."""
-        self.session.put(key, raw, encoding=self._encoding)
+    def put_raw(self, key: str, raw: bytes, encoding: str | None = None) -> None:
+        """Send bytes as they are: a recording played back (``encoding`` as recorded, e.g.
+        ``application/msgpack;fix/2``), or garbage in fault-injection tests (plain ``application/msgpack``)."""
+        self.session.put(key, raw, encoding=self._zenoh.Encoding(encoding) if encoding else self._encoding)
 
     def subscribe(self, keyexpr: str, cls: type, handler: Callable[[str, Any], None]) -> None:
         def on_sample(sample) -> None:
