@@ -37,6 +37,7 @@ from uvteam.config import vehicle_config_to_toml
 from uvteam.errors import ConfigError
 from uvteam.geo import LocalFrame
 from uvteam.io.files import load_scenario
+from uvteam.io.recording import McapRecorder, attach_zenoh
 from uvteam.io.zenoh_bus import ZenohBus
 from uvteam.messages import Crowds, Status, Truth
 from uvteam.scoring import BusScorer, summarize
@@ -250,11 +251,18 @@ class Observer:
         return s
 
 
-def run_demo(team: Team, stop: StopFlag, *, live: bool = True, out=sys.stdout) -> tuple[dict, dict]:
+def run_demo(team: Team, stop: StopFlag, *, live: bool = True, out=sys.stdout,
+             record: str | None = None) -> tuple[dict, dict]:
     obs = Observer(team)
     team.start()
     bus = ZenohBus.open(team.member_bus("view"))
+    recorder, rec_subs = None, []
     try:
+        if record:   # every key of the team and the services' configs, from before the simulator starts
+            recorder = McapRecorder(record, team.team, recorder="uvteam demo --record")
+            for vid, cfg in team.configs.items():
+                recorder.add_config(vid, vehicle_config_to_toml(cfg, f"uvteam demo: {vid} ({cfg.role})"))
+            rec_subs = attach_zenoh(bus.session, team.team, recorder)
         bus.subscribe(keys.key(team.team, "sim", "truth"), Truth, obs.scorer.on_truth)
         bus.subscribe(keys.key(team.team, team.localizer, "crowds"), Crowds, obs.scorer.on_crowds)
         bus.subscribe(keys.all_vehicles(team.team, "status"), Status, obs.on_status)
@@ -292,6 +300,12 @@ def run_demo(team: Team, stop: StopFlag, *, live: bool = True, out=sys.stdout) -
         time.sleep(1.5)  # the last crowds messages and one more status from every service
     finally:
         codes = team.stop()
+        for sub in rec_subs:
+            sub.undeclare()
+        if recorder is not None:
+            recorder.close()
+            print(f"recorded {recorder.messages} messages to {record} (open it in Foxglove, or "
+                  f"`uvteam replay {record} --localizer`)", file=out, flush=True)
         bus.close()
     return obs.summary(), codes
 
@@ -333,6 +347,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="pixels: the simulator renders camera frames and the UAV service detects on them "
                          "(default); sensor: the simulator's sensor model replaces the UAV's vision")
     ap.add_argument("--json", metavar="FILE", help="also write the summary as JSON")
+    ap.add_argument("--record", metavar="FILE.mcap",
+                    help="record every key of the team and the services' configs to an MCAP file (uvteam replay, "
+                         "Foxglove)")
     ap.add_argument("--workdir", help="where configs and logs go (default: a new temporary folder)")
     ap.add_argument("--secure", action="store_true",
                     help="run under the secure profile: a team CA and certificates (uvteam certs), TLS with client "
@@ -349,7 +366,7 @@ def main(argv: list[str] | None = None) -> int:
     tap = " ".join(uvteam_command() + ["tap", "--summary", "--team", team.team, *join])
     print(f"uvteam demo: {team.sc.name}, {len(team.ugvs)} UGVs, {team.duration_s:.0f} s; router {team.endpoint}\n"
           f"  configs and logs: {team.dir}\n  watch from another terminal: {tap}", flush=True)
-    summary, codes = run_demo(team, stop, live=not args.quiet)
+    summary, codes = run_demo(team, stop, live=not args.quiet, record=args.record)
     print_summary(team, summary, codes)
     if args.json:
         try:

@@ -21,6 +21,8 @@ _HELP = {
     "bridge": "crowds and vehicles to GeoJSON, KML/KMZ, CoT (ATAK), MAVLink (QGC/MP) and CSV",
     "map": "the team on a live map in the browser (local web app, works offline)",
     "protocol": "write the protocol's JSON Schemas and reference, generated from the message definitions",
+    "record": "record every key of a team to an MCAP file (Foxglove opens it)",
+    "replay": "play a recording back onto a bus, or through a fresh localizer to compare its crowds",
     "router": "a zenoh router for ground stations and multi-host setups",
     "certs": "the team CA, certificates and secure zenoh configs (TLS, mTLS, access control)",
     "bench": "benchmarks: localize, vision, latency",

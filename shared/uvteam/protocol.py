@@ -43,7 +43,7 @@ from . import messages
 from .blobs import Columns
 from .vocab import ID_PATTERN
 
-__all__ = ["TOP_LEVEL", "DIALECT", "json_schema", "envelope_schema", "schema_id", "file_name", "all_schemas",
+__all__ = ["TOP_LEVEL", "DIALECT", "json_schema", "wire_schema", "envelope_schema", "schema_id", "file_name", "all_schemas",
            "write_schemas", "to_json", "markdown_reference", "field_rows"]
 
 DIALECT = "https://json-schema.org/draft/2020-12/schema"
@@ -314,6 +314,20 @@ def json_schema(cls: type) -> dict:
              "x-zenoh-encoding": messages.encoding_of(cls),
              "x-topics": sorted(t for t, c in messages.BY_TOPIC.items() if c is cls)}
     return {**head, **body, **extra, **({"$defs": defs} if defs else {})}
+
+
+def wire_schema(cls: type) -> dict:
+    """The whole msgpack payload of one message type, ``{"schema": <const>, "data": <its map>}``, self-contained:
+    what a recording (``uvteam record``) attaches to each channel of raw payloads."""
+    s = json_schema(cls)
+    defs = s.pop("$defs", {})
+    head = {k: s.pop(k) for k in ("$schema", "$id", "title")}
+    s["properties"].pop("schema", None)
+    data = {k: v for k, v in s.items() if not k.startswith("x-")}
+    out = {**head, "$id": head["$id"] + ":wire", "type": "object", "required": ["schema", "data"],
+           "additionalProperties": False, "properties": {"schema": {"const": cls.SCHEMA}, "data": data},
+           **{k: v for k, v in s.items() if k.startswith("x-")}}
+    return {**out, "$defs": defs} if defs else out
 
 
 def envelope_schema() -> dict:
