@@ -93,7 +93,18 @@ def replay_localizer(rec: Recording, cfg: VehicleConfig) -> ReplayReport:
     _Capture(hub).subscribe(out_key, object, lambda _k, raw: out.append(raw))
     report = ReplayReport(cfg.id)
     pending: dict[float, messages.Detections] = {}
+    early: dict[float, bytes] = {}     # crowds that reached the recorder before their frame's detections
     det_key = keys.key(cfg.team, cfg.localizer.uav, "detections")
+
+    def process(det: messages.Detections, recorded: bytes) -> None:
+        out.clear()
+        node.process(det)
+        got = out[-1] if out else b""
+        if got == recorded:
+            report.reproduced += 1
+        else:
+            report.differed.append((det.stamp_s, recorded, got))
+
     for r in rec.records:
         clock.t_s = r.log_time_s
         if r.encoding == ALIVE:
@@ -107,6 +118,9 @@ def replay_localizer(rec: Recording, cfg: VehicleConfig) -> ReplayReport:
                 det = messages.decode(messages.Detections, r.data)
             except MessageError:
                 continue
+            if det.stamp_s in early:
+                process(det, early.pop(det.stamp_s))
+                continue
             pending[det.stamp_s] = det
             if len(pending) > PENDING_FRAMES:
                 del pending[min(pending)]
@@ -117,15 +131,10 @@ def replay_localizer(rec: Recording, cfg: VehicleConfig) -> ReplayReport:
             for s in [s for s in pending if s < want.stamp_s]:   # frames the localizer skipped
                 del pending[s]
             if det is None:
-                report.no_detections += 1
+                early[want.stamp_s] = r.data
                 continue
-            out.clear()
-            node.process(det)
-            got = out[-1] if out else b""
-            if got == r.data:
-                report.reproduced += 1
-            else:
-                report.differed.append((want.stamp_s, r.data, got))
+            process(det, r.data)
+    report.no_detections = len(early)
     report.rejected = node.bus.rejected_total
     return report
 
