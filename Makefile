@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 
 CHROMIUM ?= /usr/bin/chromium
 
-.PHONY: install browser test unit demo bench experiment clean
+.PHONY: install browser js test unit demo bench experiment clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -26,7 +26,18 @@ browser:
 	    chromium >/dev/null) || echo "make: could not install chromium; the map's browser test will skip"; \
 	fi
 
-test: $(STAMP) browser
+# Foxglove's own MCAP reader and message schemas (npm, pinned in tests/js/package.json) check what
+# `uvteam record` writes; without npm that test skips and says so.
+JS_STAMP := tests/js/node_modules/.installed
+$(JS_STAMP): tests/js/package.json
+	@if command -v npm >/dev/null 2>&1; then \
+	  npm install --prefix tests/js --no-audit --no-fund --no-package-lock --silent && touch $(JS_STAMP) \
+	    || echo "make: could not install tests/js; the Foxglove MCAP check will skip"; \
+	else echo "make: no npm; the Foxglove MCAP check will skip"; fi
+
+js: $(JS_STAMP)
+
+test: $(STAMP) browser js
 	$(BIN)/python -m pytest -q
 
 unit: $(STAMP)
@@ -42,4 +53,4 @@ experiment: $(STAMP)
 	$(BIN)/uvteam experiment ../shared/scenarios/*.toml
 
 clean:
-	rm -rf $(VENV) build *.egg-info shared/*.egg-info
+	rm -rf $(VENV) build *.egg-info shared/*.egg-info tests/js/node_modules
