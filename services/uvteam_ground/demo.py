@@ -75,7 +75,8 @@ class Team:
 
     def __init__(self, scenario_path: str, *, team: str = "demo", seed: int | None = None,
                  duration_s: float | None = None, workdir: str | None = None, log_level: str = "INFO",
-                 frames: str = "pixels", secure: bool = False) -> None:
+                 frames: str = "pixels", secure: bool = False, map_http: str | None = None,
+                 annotate: bool = False) -> None:
         if frames not in FRAMES:
             raise ValueError(f"frames must be 'pixels' or 'sensor', got {frames!r}")
         self.sc = load_scenario(scenario_path)
@@ -105,6 +106,13 @@ class Team:
             write_team(Roster(team, (self.uav,), tuple(self.ugvs), ((self.localizer, self.uav),), ("sim",), ("view",)),
                        self.secrets, router_hosts=("127.0.0.1",), listen=(self.endpoint,))
             self.configs = {v: replace(c, bus=self.member_bus(v)) for v, c in self.configs.items()}
+        self.annotate_url = None
+        if annotate and frames == "pixels":   # what the UAV sees, drawn, as MJPEG on a loopback port
+            port = free_port()
+            u = self.configs[self.uav]
+            self.configs[self.uav] = replace(u, uav=replace(u.uav, annotate_http=f"127.0.0.1:{port}"))
+            self.annotate_url = f"http://127.0.0.1:{port}/stream.mjpg"
+        self.map_http = map_http
         for vid, cfg in self.configs.items():
             (self.dir / f"{vid}.toml").write_text(vehicle_config_to_toml(cfg, f"uvteam demo: {vid} ({cfg.role})"))
 
@@ -142,6 +150,14 @@ class Team:
         self._spawn(self.uav, ["uav", "--config", str(self.dir / f"{self.uav}.toml"), *ll])
         for u in self.ugvs:
             self._spawn(u, ["ugv", "--config", str(self.dir / f"{u}.toml"), *ll])
+        if self.map_http:
+            join = ["--zenoh-config", str(self.secrets / "view.json5")] if self.secure else ["--connect", self.endpoint]
+            self._spawn("map", ["map", "--team", self.team, "--http", self.map_http, *join, *ll,
+                                *(["--video", self.annotate_url] if self.annotate_url else [])])
+
+    @property
+    def map_url(self) -> str | None:
+        return f"http://{self.map_http}/" if self.map_http else None
 
     def start_sim(self) -> None:
         sysid = self.layout.system_ids
@@ -167,7 +183,7 @@ class Team:
         return [n for n, p in self.procs.items() if p.poll() not in (None, 0) and n not in self.expected_exit]
 
     def stop(self, timeout_s: float = 8.0) -> dict[str, int | None]:
-        order = ["sim", "localizer", self.uav] + self.ugvs + ["router"]   # nobody sees a teammate leave
+        order = ["map", "sim", "localizer", self.uav] + self.ugvs + ["router"]   # nobody sees a teammate leave
         for n in order:
             p = self.procs.get(n)
             if p is not None and p.poll() is None:
@@ -310,6 +326,20 @@ def run_demo(team: Team, stop: StopFlag, *, live: bool = True, out=sys.stdout,
     return obs.summary(), codes
 
 
+def _map_address(wanted: str) -> str:
+    """``wanted`` (HOST:PORT) when that port is free on loopback, else the same host on a free port."""
+    host, _, port = wanted.rpartition(":")
+    if port == "0":
+        return f"{host}:{free_port()}"
+    with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET) as s:
+        try:
+            s.bind((host.strip("[]"), int(port)))
+            return wanted
+        except (OSError, ValueError):
+            pass
+    return f"{host}:{free_port()}"
+
+
 def _table(rows: list[tuple[str, str]]) -> str:
     w = max(len(k) for k, _ in rows)
     return "\n".join(f"  {k:<{w}}  {v}" for k, v in rows)
@@ -351,6 +381,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="record every key of the team and the services' configs to an MCAP file (uvteam replay, "
                          "Foxglove)")
     ap.add_argument("--workdir", help="where configs and logs go (default: a new temporary folder)")
+    ap.add_argument("--map-http", default="127.0.0.1:8770", metavar="HOST:PORT",
+                    help="where the live map is served (default 127.0.0.1:8770, or a free port when that is taken; "
+                         "port 0: any free port)")
+    ap.add_argument("--no-map", action="store_true", help="do not start the live map (uvteam map)")
     ap.add_argument("--secure", action="store_true",
                     help="run under the secure profile: a team CA and certificates (uvteam certs), TLS with client "
                          "certificates, and access control on the router")
@@ -358,7 +392,8 @@ def main(argv: list[str] | None = None) -> int:
     stop = StopFlag()
     try:
         team = Team(args.scenario, seed=args.seed, duration_s=args.duration, workdir=args.workdir, frames=args.frames,
-                    secure=args.secure)
+                    secure=args.secure, map_http=None if args.no_map else _map_address(args.map_http),
+                    annotate=not args.no_map)
     except (ConfigError, OSError) as exc:
         print(f"uvteam demo: {exc}", file=sys.stderr)
         return 2
@@ -366,6 +401,9 @@ def main(argv: list[str] | None = None) -> int:
     tap = " ".join(uvteam_command() + ["tap", "--summary", "--team", team.team, *join])
     print(f"uvteam demo: {team.sc.name}, {len(team.ugvs)} UGVs, {team.duration_s:.0f} s; router {team.endpoint}\n"
           f"  configs and logs: {team.dir}\n  watch from another terminal: {tap}", flush=True)
+    if team.map_url:
+        print(f"  live map: open {team.map_url} in a browser"
+              + (" (with what the UAV sees beside it)" if team.annotate_url else ""), flush=True)
     summary, codes = run_demo(team, stop, live=not args.quiet, record=args.record)
     print_summary(team, summary, codes)
     if args.json:

@@ -21,6 +21,7 @@ a default is said beside it.
 from __future__ import annotations
 
 import math
+import re
 import types
 import typing
 from dataclasses import MISSING, dataclass, field, fields, replace
@@ -43,6 +44,8 @@ def _choice(choices: tuple) -> dict:
     return {"choices": choices}
 
 
+_HOSTPORT = re.compile(r"\[?([^\[\]\s]+?)\]?:(\d{1,5})")
+VIDEO_SUFFIXES = (".mp4", ".avi")
 ID = {"id": True}
 IDS = {"ids": True}
 POSITIVE = _num(0.0, None, lo_open=True)
@@ -65,6 +68,10 @@ class UavConfig:
     camera: str = "zenoh"                  # frames for "pixels": "zenoh" (the bus key .../frame), device:N, a file, rtsp://, gst:
     hfov_deg: float = field(default=78.0, metadata=_num(1.0, 179.0))  # the camera's horizontal field of view (no distortion)
     label_side_m: float = field(default=1.0, metadata=POSITIVE)       # side of the UGVs' square roof labels
+    # what the UAV sees, drawn (uvteam.vision.annotate: blobs, landmarks, the localizer's crowds), "pixels" only:
+    annotate_http: str = field(default="", metadata={"hostport": True})       # MJPEG over HTTP on HOST:PORT ("" = off;
+    #                                                                            e.g. 127.0.0.1:8771; a public address shows it to all)
+    annotate_video: str = field(default="", metadata={"video_file": True})    # also write it to this .mp4 or .avi ("" = off)
 
 
 @dataclass(frozen=True)
@@ -180,6 +187,12 @@ def _check_field(src: str, key: str, f, v: Any) -> Any:
             raise bad(f"expected ids (1-32 of A-Z a-z 0-9 _ -), got {bad_ids[0]!r}")
         if len(set(v)) != len(v):
             raise bad("ids must not repeat")
+    if meta.get("hostport") and v:
+        m = _HOSTPORT.fullmatch(v)
+        if not m or not 0 < int(m.group(2)) <= 65535:
+            raise bad(f"expected HOST:PORT (e.g. 127.0.0.1:8771, [::1]:8771), got {v!r}")
+    if meta.get("video_file") and v and Path(v).suffix.lower() not in VIDEO_SUFFIXES:
+        raise bad(f"expected a {' or '.join(VIDEO_SUFFIXES)} file, got {v!r}")
     if meta.get("color_map"):
         for color, ugv in v.items():
             if color not in COLORS:
