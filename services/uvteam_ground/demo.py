@@ -12,6 +12,10 @@ played for real: a UGV lost at t seconds has its service killed (SIGKILL) at t.
     uvteam demo --scenario ../shared/scenarios/paper-fig8-lm6.toml --duration 20
     uvteam demo --secure                              the same under the secure profile (uvteam certs:
                                                       TLS, client certificates, access control)
+    uvteam demo -l tcp/0.0.0.0:7447                   its router also listens there: watch from another host
+
+The zenoh flags (-l/--listen, -e/--connect, --cfg, --zenoh-config) go to the router the demo starts;
+the team's own processes stay on loopback.
 """
 
 from __future__ import annotations
@@ -38,7 +42,7 @@ from uvteam.errors import ConfigError
 from uvteam.geo import LocalFrame
 from uvteam.io.files import load_scenario
 from uvteam.io.recording import McapRecorder, attach_zenoh
-from uvteam.io.zenoh_bus import ZenohBus
+from uvteam.io.zenoh_bus import ZenohBus, add_bus_args, parse_cfg
 from uvteam.messages import Crowds, Status, Truth
 from uvteam.scoring import BusScorer, summarize
 from uvteam.service import StopFlag
@@ -76,7 +80,7 @@ class Team:
     def __init__(self, scenario_path: str, *, team: str = "demo", seed: int | None = None,
                  duration_s: float | None = None, workdir: str | None = None, log_level: str = "INFO",
                  frames: str = "pixels", secure: bool = False, map_http: str | None = None,
-                 annotate: bool = False) -> None:
+                 annotate: bool = False, router_args: tuple[str, ...] = ()) -> None:
         if frames not in FRAMES:
             raise ValueError(f"frames must be 'pixels' or 'sensor', got {frames!r}")
         self.sc = load_scenario(scenario_path)
@@ -113,6 +117,7 @@ class Team:
             self.configs[self.uav] = replace(u, uav=replace(u.uav, annotate_http=f"127.0.0.1:{port}"))
             self.annotate_url = f"http://127.0.0.1:{port}/stream.mjpg"
         self.map_http = map_http
+        self.router_args = tuple(router_args)     # zenoh flags the user gave the demo, for its router
         for vid, cfg in self.configs.items():
             (self.dir / f"{vid}.toml").write_text(vehicle_config_to_toml(cfg, f"uvteam demo: {vid} ({cfg.role})"))
 
@@ -142,7 +147,7 @@ class Team:
 
     def start(self) -> None:
         self._spawn("router", ["router", "--zenoh-config", str(self.secrets / "router.json5")] if self.secure
-                    else ["router", "--listen", self.endpoint])
+                    else ["router", "--listen", self.endpoint, *self.router_args])
         if not _wait_port(self.router_port, 15.0):
             raise RuntimeError(f"the router did not come up; see {self.dir / 'logs' / 'router.log'}")
         ll = ["--log-level", self.log_level]
@@ -326,6 +331,25 @@ def run_demo(team: Team, stop: StopFlag, *, live: bool = True, out=sys.stdout,
     return obs.summary(), codes
 
 
+def _router_args(args) -> tuple[str, ...]:
+    """The zenoh flags given to the demo, for the router it starts (the team itself stays on loopback):
+    ``-l tcp/0.0.0.0:7447`` lets a laptop on the network watch, ``-e`` joins another router, ``--cfg``
+    tunes it."""
+    if args.mode not in (None, "router"):
+        raise ConfigError("--mode", "mode", f"the demo's flags are for its router, which runs in mode router, "
+                                            f"not {args.mode}")
+    if args.secure and (args.listen or args.connect or args.cfg or args.zenoh_config):
+        raise ConfigError("--secure", "zenoh flags", "the secure profile's router uses its generated config only")
+    parse_cfg(args.cfg)
+    out: list[str] = []
+    for flag, values in (("--listen", args.listen), ("--connect", args.connect), ("--cfg", args.cfg)):
+        for v in values:
+            out += [flag, v]
+    if args.zenoh_config:
+        out += ["--zenoh-config", str(Path(args.zenoh_config).resolve())]
+    return tuple(out)
+
+
 def _map_address(wanted: str) -> str:
     """``wanted`` (HOST:PORT) when that port is free on loopback, else the same host on a free port."""
     host, _, port = wanted.rpartition(":")
@@ -388,12 +412,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--secure", action="store_true",
                     help="run under the secure profile: a team CA and certificates (uvteam certs), TLS with client "
                          "certificates, and access control on the router")
+    add_bus_args(ap)
     args = ap.parse_args(argv)
     stop = StopFlag()
     try:
+        router_args = _router_args(args)
         team = Team(args.scenario, seed=args.seed, duration_s=args.duration, workdir=args.workdir, frames=args.frames,
                     secure=args.secure, map_http=None if args.no_map else _map_address(args.map_http),
-                    annotate=not args.no_map)
+                    annotate=not args.no_map, router_args=router_args)
     except (ConfigError, OSError) as exc:
         print(f"uvteam demo: {exc}", file=sys.stderr)
         return 2

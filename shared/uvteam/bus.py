@@ -37,6 +37,7 @@ class BusConfig:
     listen: tuple[str, ...] = ()
     shared_memory: bool | None = None
     connect_timeout_ms: int | None = None   # how long opening waits for a connect endpoint (-1: forever)
+    cfg: tuple[tuple[str, str], ...] = ()   # (KEY, JSON5 VALUE) inserted last, as zenoh's --cfg KEY:VALUE
 
 
 class Bus(Protocol):

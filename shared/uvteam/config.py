@@ -244,7 +244,7 @@ def vehicle_config_from_dict(raw: dict, src: str, *, base_dir: Path | None = Non
     if bus_override is not None:
         bus = replace(bus, **{k: getattr(bus_override, k) for k in ("config_file", "mode")
                                if getattr(bus_override, k)},
-                      **{k: getattr(bus_override, k) for k in ("connect", "listen") if getattr(bus_override, k)})
+                      **{k: getattr(bus_override, k) for k in ("connect", "listen", "cfg") if getattr(bus_override, k)})
     cfg = VehicleConfig(
         team=v["team"], id=v["id"], role=v["role"], bus=bus,
         autopilot=_section(AutopilotConfig, raw.get("autopilot", {}), src, "autopilot"),

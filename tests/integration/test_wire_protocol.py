@@ -1,6 +1,7 @@
 """A live loopback team (uvteam demo --frames sensor), read three ways at once:
 
-- with only zenoh and msgpack (wire_reader.py, which refuses to import uvteam): every key's zenoh
+- with only zenoh and msgpack (wire_reader.py, which refuses to import uvteam), through an endpoint the
+  demo's router was told to listen on (uvteam demo -l ENDPOINT --cfg KEY:VALUE): every key's zenoh
   encoding names the schema its payload carries, and the payloads validate against the published
   JSON Schemas (docs/schemas, with jsonschema);
 - recorded by the demo itself (--record) to MCAP: mcap's own reader, the same keys, every crowds
@@ -10,6 +11,7 @@
 
 import json
 import math
+import socket
 import subprocess
 import sys
 import time
@@ -29,13 +31,16 @@ TOPICS = {"fix", "plan", "detections", "sensor", "crowds", "status", "truth"}
 def live_run(tmp_path_factory):
     d = tmp_path_factory.mktemp("wire")
     rec, summary, wire = d / "demo.mcap", d / "summary.json", d / "wire.json"
+    with socket.socket() as sk:           # the demo's router also listens here (-l): the third party's door
+        sk.bind(("127.0.0.1", 0))
+        endpoint = f"tcp/127.0.0.1:{sk.getsockname()[1]}"
     demo = subprocess.Popen([sys.executable, "-m", "uvteam", "demo", "--frames", "sensor", "--duration", "8", "--quiet",
-                             "--record", str(rec), "--json", str(summary), "--workdir", str(d / "work")],
+                             "--record", str(rec), "--json", str(summary), "--workdir", str(d / "work"),
+                             "-l", endpoint, "--cfg", "transport/link/tx/lease:4000"],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=d)
     reader = None
     try:
         first = demo.stdout.readline()
-        endpoint = first.split("router ", 1)[1].split(";")[0].strip()
         reader = subprocess.Popen([sys.executable, str(Path(__file__).with_name("wire_reader.py")), endpoint, "demo",
                                    "16", str(wire)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         out, _ = demo.communicate(timeout=120)

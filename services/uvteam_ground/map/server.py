@@ -33,7 +33,7 @@ from urllib.parse import urlsplit
 from uvteam import keys, messages
 from uvteam.bus import BusConfig
 from uvteam.errors import ConfigError, LinkError
-from uvteam.io.zenoh_bus import ZenohBus, add_bus_args
+from uvteam.io.zenoh_bus import ZenohBus, add_bus_args, bus_config_from_args
 from uvteam.service import StopFlag, setup_logging
 
 from .state import MapConfig, TeamView
@@ -270,13 +270,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"uvteam map: {exc}", file=sys.stderr)
         return 2
     view = TeamView(cfg)
-    bcfg = BusConfig(config_file=args.zenoh_config, mode=args.mode or ("client" if args.connect else None),
-                     connect=tuple(args.connect), listen=tuple(args.listen))
     try:
-        bus = ZenohBus.open(bcfg)
+        bus = ZenohBus.open(bus_config_from_args(args, BusConfig(mode="client") if args.connect else None))
     except (LinkError, ConfigError) as exc:
         print(f"uvteam map: {exc}", file=sys.stderr)
-        return 3
+        return 2 if isinstance(exc, ConfigError) else 3
     stop = StopFlag()
     try:
         with bus:
