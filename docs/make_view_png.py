@@ -16,7 +16,7 @@ import subprocess
 import sys
 import tempfile
 import time
-import tomllib
+from uvteam.io.files import tomllib  # tomli before Python 3.11
 import urllib.request
 from pathlib import Path
 

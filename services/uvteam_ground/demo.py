@@ -188,24 +188,27 @@ class Team:
         return [n for n, p in self.procs.items() if p.poll() not in (None, 0) and n not in self.expected_exit]
 
     def stop(self, timeout_s: float = 8.0) -> dict[str, int | None]:
-        order = ["map", "sim", "localizer", self.uav] + self.ugvs + ["router"]   # nobody sees a teammate leave
-        for n in order:
-            p = self.procs.get(n)
-            if p is not None and p.poll() is None:
-                try:
-                    os.killpg(p.pid, signal.SIGTERM)
-                except ProcessLookupError:
-                    pass
+        """SIGTERM in stages, each waited for: the watchers and the simulator, then the localizer and the
+        UAV, then the UGVs, then the router; so no service sees a teammate leave and warns of it."""
+        stages = [["map", "sim"], ["localizer", self.uav], list(self.ugvs), ["router"]]
         end = time.monotonic() + timeout_s
-        for n in order:
-            p = self.procs.get(n)
-            if p is None:
-                continue
-            try:
-                p.wait(timeout=max(end - time.monotonic(), 0.1))
-            except subprocess.TimeoutExpired:
-                os.killpg(p.pid, signal.SIGKILL)
-                p.wait(timeout=5)
+        for stage in stages:
+            for n in stage:
+                p = self.procs.get(n)
+                if p is not None and p.poll() is None:
+                    try:
+                        os.killpg(p.pid, signal.SIGTERM)
+                    except ProcessLookupError:
+                        pass
+            for n in stage:
+                p = self.procs.get(n)
+                if p is None:
+                    continue
+                try:
+                    p.wait(timeout=max(end - time.monotonic(), 0.1))
+                except subprocess.TimeoutExpired:
+                    os.killpg(p.pid, signal.SIGKILL)
+                    p.wait(timeout=5)
         for f in self.logs.values():
             f.close()
         return {n: p.returncode for n, p in self.procs.items()}

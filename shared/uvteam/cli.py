@@ -7,6 +7,7 @@ Commands are registered by the service packages under the entry-point group ``uv
 from __future__ import annotations
 
 import sys
+from importlib import metadata
 from importlib.metadata import entry_points
 
 __all__ = ["main", "commands"]
@@ -34,13 +35,26 @@ def commands() -> dict:
     return {ep.name: ep for ep in entry_points(group="uvteam.commands")}
 
 
+def version() -> str:
+    try:
+        return metadata.version("uvteam")
+    except metadata.PackageNotFoundError:   # a source tree that was never installed
+        return "unknown (not installed)"
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     cmds = commands()
+    if argv and argv[0] in ("-V", "--version", "version"):
+        print(f"uvteam {version()} (Python {sys.version.split()[0]})")
+        return 0
     if not argv or argv[0] in ("-h", "--help", "help"):
-        print("usage: uvteam <command> [--help] [args]\n\ncommands:")
+        print("usage: uvteam <command> [--help] [args]\n       uvteam --version\n\ncommands:")
         for name in sorted(cmds):
             print(f"  {name:<11} {_HELP.get(name, '')}")
+        from .io.zenoh_bus import BUS_FLAGS_HELP  # noqa: PLC0415
+
+        print("\n" + BUS_FLAGS_HELP)
         return 0 if argv else 2
     name, rest = argv[0], argv[1:]
     if name not in cmds:

@@ -8,7 +8,7 @@ import subprocess
 import sys
 import threading
 import time
-import tomllib
+from uvteam.io.files import tomllib  # tomli before Python 3.11
 import urllib.request
 from pathlib import Path
 

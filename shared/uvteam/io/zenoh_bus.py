@@ -86,8 +86,8 @@ def parse_cfg(items) -> tuple[tuple[str, str], ...]:
 
 
 BUS_FLAGS_HELP = """zenoh flags (the same on every command that opens a session, as in zenoh's own examples):
-  -m, --mode peer|client|router   session mode (default: client when --connect is given, else peer; router for
-                                  uvteam router)
+  -m, --mode peer|client|router   session mode (default: the config's, else peer; tap, map, record and replay:
+                                  client when --connect is given; uvteam router: router)
   -e, --connect ENDPOINT          connect to ENDPOINT, e.g. tcp/10.0.0.1:7447 (repeatable)
   -l, --listen ENDPOINT           listen on ENDPOINT, e.g. tcp/0.0.0.0:7447 (repeatable)
   --zenoh-config FILE             a zenoh JSON5 config file (deploy/zenoh/); the flags above go over it
