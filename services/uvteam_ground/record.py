@@ -108,6 +108,9 @@ def replay_main(argv: list[str] | None = None) -> int:
     ap.add_argument("--speed", type=float, default=1.0,
                     help="times real time (default 1; 0 = as fast as the bus takes it)")
     ap.add_argument("--team", default=None, help="publish under this team id instead of the recorded one")
+    ap.add_argument("--settle-s", type=float, default=1.0,
+                    help="wait this long after joining the bus before the first message, so that the bus routes "
+                         "to its subscribers (default 1)")
     ap.add_argument("--localizer", action="store_true",
                     help="no bus: run a fresh localizer on the recorded fixes, plans and detections and compare "
                          "its crowds with the recorded ones, byte for byte (exit 1 if any differ)")
@@ -170,6 +173,8 @@ def _replay_bus(rec, args) -> int:
              f" as team {args.team}" if args.team else "", f"{args.speed:g}x" if args.speed else "full speed")
     lock = threading.Lock()
     with bus:
+        if stop.wait(max(args.settle_s, 0.0)):
+            return 0
         t0 = time.monotonic()
         try:
             for r in payloads:
