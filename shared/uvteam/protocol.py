@@ -69,15 +69,21 @@ def _def_name(cls: type) -> str:
 
 # --- reading the source: field comments and rules -------------------------------------------------
 @cache
-def _class_source(cls: type) -> tuple[ast.ClassDef, dict[int, str], int]:
-    src, first = inspect.getsourcelines(cls)
+def _class_source(cls: type) -> tuple[ast.ClassDef, dict[int, str], str]:
+    src, _first = inspect.getsourcelines(cls)
     text = textwrap.dedent("".join(src))
     tree = ast.parse(text).body[0]
     comments: dict[int, str] = {}
     for tok in tokenize.generate_tokens(io.StringIO(text).readline):
         if tok.type == tokenize.COMMENT:
             comments[tok.start[0]] = tok.string.lstrip("#").strip()
-    return tree, comments, first
+    return tree, comments, text
+
+
+def _source(text: str, node: ast.AST) -> str:
+    """A node's own source text, on one line (ast.unparse would differ between Python versions)."""
+    seg = ast.get_source_segment(text, node)
+    return " ".join(seg.split()) if seg else ast.unparse(node)
 
 
 def field_comments(cls: type) -> dict[str, str]:
@@ -104,7 +110,7 @@ def _self_field(node: ast.AST) -> str | None:
     return None
 
 
-def _message_text(node: ast.AST, env: dict) -> str:
+def _message_text(node: ast.AST, env: dict, text_src: str) -> str:
     """A rule's message as people read it: an f-string with the constants filled in, the value it got dropped."""
     if isinstance(node, ast.Constant):
         text = str(node.value)
@@ -117,10 +123,10 @@ def _message_text(node: ast.AST, env: dict) -> str:
                 try:
                     parts.append(str(_const(v.value, env)))
                 except Exception:  # refers to the message (self): not a constant
-                    parts.append("{" + ast.unparse(v.value) + "}")
+                    parts.append("{" + _source(text_src, v.value) + "}")
         text = "".join(parts)
     else:
-        text = ast.unparse(node)
+        text = _source(text_src, node)
     return text.split(", got")[0].strip()
 
 
@@ -185,7 +191,7 @@ def message_rules(cls: type) -> list[dict]:
     (``raise ValueError(...)``): ``{"field", "check", "message", "keywords"}`` (keywords: what JSON
     Schema can say of it, by field; empty when it cannot)."""
     try:
-        tree, _, _ = _class_source(cls)
+        tree, _, src = _class_source(cls)
     except (OSError, TypeError):
         return []
     env = vars(inspect.getmodule(cls))
@@ -197,12 +203,12 @@ def message_rules(cls: type) -> list[dict]:
             if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "_rule"
                     and len(node.args) == 3):
                 cond, where, why = node.args
-                field = where.value if isinstance(where, ast.Constant) else ast.unparse(where)
-                out.append({"field": field, "check": ast.unparse(cond), "message": _message_text(why, env),
+                field = where.value if isinstance(where, ast.Constant) else _source(src, where)
+                out.append({"field": field, "check": _source(src, cond), "message": _message_text(why, env, src),
                             "keywords": _bounds(cond, env) or {}})
             elif (isinstance(node, ast.Raise) and isinstance(node.exc, ast.Call)
                   and isinstance(node.exc.func, ast.Name) and node.exc.func.id == "ValueError" and node.exc.args):
-                text = _message_text(node.exc.args[0], env)
+                text = _message_text(node.exc.args[0], env, src)
                 field, _, why = text.partition(": ")
                 if not why or " " in field:
                     field, why = "", text
