@@ -437,9 +437,8 @@ def _table(schema: dict) -> list[str]:
     out = ["| field | type | required | limits | meaning |", "|---|---|---|---|---|"]
     for row in field_rows(schema):
         out.append("| " + " | ".join(c.replace("|", "\\|") for c in row) + " |")
-    for r in schema.get("x-rules", []):
+    if schema.get("x-rules"):
         out.append("")
-        break
     for r in schema.get("x-rules", []):
         out.append(f"- {('`' + r['field'] + '`: ') if r['field'] else ''}{r['message']}")
     return out

@@ -14,7 +14,6 @@ import math
 import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import jsonschema

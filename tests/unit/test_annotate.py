@@ -13,7 +13,7 @@ from uvteam.blobs import Blobs, Landmarks
 from uvteam.geo import LocalFrame
 from uvteam.io.annotated import BOUNDARY, MjpegServer, VideoFileWriter
 from uvteam.messages import Crowd, Crowds, Detections
-from uvteam.vision.annotate import CROWD_BGR, annotate, place_crowds, ugv_bgr
+from uvteam.vision.annotate import annotate, place_crowds, ugv_bgr
 
 W, H = 640, 360
 ORIGIN = (31.4848, -111.5440)

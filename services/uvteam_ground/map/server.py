@@ -3,14 +3,15 @@
     uvteam map --team demo --connect tcp/127.0.0.1:7447             then open http://127.0.0.1:8770/
     uvteam map --team border1 --connect tcp/10.0.0.1:7447 --basemap maps/sasabe.mbtiles
     uvteam map --team border1 --mode peer --listen tcp/0.0.0.0:7448 --http 127.0.0.1:9000
-    uvteam map --team demo --connect tcp/127.0.0.1:7447 --video http://127.0.0.1:8771/stream.mjpg
+    uvteam map --team demo -e tcp/127.0.0.1:7447 --video http://127.0.0.1:8771/stream.mjpg
 
 Draws the UAV with its camera footprint, the UGVs with heading, trail, plan and alive/stale state,
 and every crowd with its footprint, 95 % circle, velocity arrow, track and quality; a side list
 gives each crowd's lat/lon and MGRS. Without a basemap the map is a metric grid (metres east/north
 of the first fix, or --origin) with a scale bar and a north arrow. With --video, what the UAV sees
-(its annotated camera, MJPEG from the UAV service's [uav].annotate_http) is shown beside the map. The page is served from
-127.0.0.1 unless --http says otherwise; it gets updates by server-sent events at --rate-hz.
+(its annotated camera, MJPEG from the UAV service's [uav].annotate_http) is shown beside the map.
+The page is served from 127.0.0.1 unless --http says otherwise; it gets updates by server-sent
+events at --rate-hz.
 Camera frames are never subscribed to.
 """
 
@@ -103,7 +104,8 @@ class MapServer(ThreadingHTTPServer):
 
     def client_config(self) -> dict:
         return {
-            "team": self.view.cfg.team, "video": self.video, "rate_hz": self.rate_hz, "arrow_s": self.view.cfg.arrow_s, "center": self.center, "zoom": self.zoom,
+            "team": self.view.cfg.team, "video": self.video,
+            "rate_hz": self.rate_hz, "arrow_s": self.view.cfg.arrow_s, "center": self.center, "zoom": self.zoom,
             "origin": list(self.view.cfg.origin) if self.view.cfg.origin else None,
             "basemaps": [{"name": b.info.name, "url": f"tiles/{i}/{{z}}/{{x}}/{{y}}.{b.info.fmt}",
                           "min_zoom": b.info.min_zoom, "max_zoom": b.info.max_zoom, "bounds": b.info.bounds,

@@ -27,7 +27,7 @@ import math
 import threading
 import time
 from collections import Counter
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -39,7 +39,7 @@ from ..errors import MessageError
 from ..formats import foxglove
 
 __all__ = ["Record", "Recording", "McapRecorder", "read_recording", "attach_zenoh", "attach_in_memory",
-           "ns_of", "s_of", "RAW_MESSAGE_ENCODING", "ALIVE_SCHEMA", "iter_payloads", "record_topics"]
+           "ns_of", "s_of", "RAW_MESSAGE_ENCODING", "ALIVE_SCHEMA", "record_topics"]
 
 log = logging.getLogger(__name__)
 RAW_MESSAGE_ENCODING = "msgpack"
@@ -304,9 +304,3 @@ def attach_in_memory(hub: Any, team: str, recorder: McapRecorder, *, frames: boo
     for t in record_topics(frames):
         tap.subscribe(keys.all_vehicles(team, t), object, lambda k, raw: recorder.add_payload(k, raw))
     tap.watch_alive(keys.alive_all(team), recorder.add_alive)
-
-
-def iter_payloads(rec: Recording, topics: tuple[str, ...] | None = None) -> Iterator[Record]:
-    for r in rec.records:
-        if r.encoding != ALIVE and (topics is None or keys.topic_of(r.key) in topics):
-            yield r
