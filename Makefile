@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 
 CHROMIUM ?= /usr/bin/chromium
 
-.PHONY: install browser js test unit demo bench experiment clean
+.PHONY: install browser js test unit pythons demo bench experiment clean
 
 $(STAMP): pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -42,6 +42,18 @@ test: $(STAMP) browser js
 
 unit: $(STAMP)
 	$(BIN)/python -m pytest -q tests/unit
+
+# The unit suite on every other Python this machine has (pyenv's 3.10, 3.12, 3.13): the wheel with its
+# test extras in a fresh venv per Python under build/pythons/, the tests from this tree.
+PYTHONS ?= $(wildcard $(HOME)/.pyenv/versions/3.1[0-9]*/bin/python3)
+pythons: $(STAMP)
+	@rm -rf build/pythons/dist && $(BIN)/pip wheel --quiet --no-deps -w build/pythons/dist .
+	@for py in $(PYTHONS); do \
+	  v=$$($$py -c 'import sys; print("%d.%d" % sys.version_info[:2])'); d=build/pythons/$$v; \
+	  echo "== Python $$v"; rm -rf $$d && $$py -m venv $$d && \
+	  $$d/bin/pip install --quiet "$$(ls build/pythons/dist/uvteam-*.whl)[test]" && \
+	  $$d/bin/python -m pytest -q -p no:cacheprovider tests/unit || exit 1; \
+	done
 
 demo: $(STAMP)
 	$(BIN)/uvteam demo $(ARGS)
