@@ -33,11 +33,12 @@ from uvteam.vocab import is_id
 
 log = logging.getLogger("uvteam.record")
 PROGRESS_S = 10.0
+CONNECT_WAIT_MS = 15_000
 
 
-def _client_default(args) -> BusConfig:
+def _client_default(args, wait_ms: int | None = None) -> BusConfig:
     """A laptop tool joins as a client when told where to connect, as `uvteam tap` does."""
-    return BusConfig(mode="client") if args.connect and not args.mode else BusConfig()
+    return BusConfig(mode="client" if args.connect and not args.mode else None, connect_timeout_ms=wait_ms)
 
 
 def record_main(argv: list[str] | None = None) -> int:
@@ -59,7 +60,8 @@ def record_main(argv: list[str] | None = None) -> int:
     setup_logging(f"{args.team}/record", args.log_level)
     try:
         configs = [(load_vehicle_config(p), Path(p).read_text(encoding="utf-8")) for p in args.config]
-        bus = ZenohBus.open(bus_config_from_args(args, _client_default(args)))
+        # a recorder started just before its team's router waits for it a while
+        bus = ZenohBus.open(bus_config_from_args(args, _client_default(args, CONNECT_WAIT_MS if args.connect else None)))
     except ConfigError as exc:
         print(f"uvteam record: configuration error: {exc}", file=sys.stderr)
         return 2
@@ -132,6 +134,8 @@ def replay_main(argv: list[str] | None = None) -> int:
         print(f"uvteam replay: cannot read {args.recording}: {exc}", file=sys.stderr)
         return 2
     if args.localizer:
+        if args.log_level != "DEBUG":   # the recorded run's own events (UGVs leaving at its end) are not news here
+            logging.getLogger("uvteam.localizer").setLevel(logging.ERROR)
         return _replay_localizer(rec, args.config)
     return _replay_bus(rec, args)
 

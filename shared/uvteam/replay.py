@@ -28,6 +28,7 @@ from .nodes.localizer import LocalizerNode
 
 __all__ = ["ReplayReport", "replay_localizer", "localizer_config_for"]
 
+M_PER_DEG_LAT = 111_320.0   # near enough to compare two estimates of one crowd
 PENDING_FRAMES = 64          # detections kept waiting for the crowds message that says they were processed
 
 
@@ -44,10 +45,27 @@ class ReplayReport:
     def exact(self) -> bool:
         return self.recorded > 0 and self.reproduced == self.recorded
 
+    def gaps_m(self) -> list[float]:
+        """For the messages that differ: how far apart each crowd (same id in both) is, metres."""
+        out = []
+        for _stamp, a, b in self.differed:
+            if not b:
+                continue
+            got = {c.crowd_id: c for c in messages.decode(messages.Crowds, b).crowds}
+            for c in messages.decode(messages.Crowds, a).crowds:
+                d = got.get(c.crowd_id)
+                if d is not None:
+                    out.append(math.hypot((c.lat_deg - d.lat_deg) * M_PER_DEG_LAT,
+                                          (c.lon_deg - d.lon_deg) * M_PER_DEG_LAT * math.cos(math.radians(c.lat_deg))))
+        return out
+
     def summary(self) -> str:
+        gaps = sorted(self.gaps_m())
+        apart = (f"; where they differ, crowds are {gaps[len(gaps) // 2]:.3f} m apart (median), {gaps[-1]:.3f} m at most"
+                 if gaps else "")
         return (f"localizer {self.localizer}: {self.recorded} crowds messages recorded, {self.reproduced} reproduced "
                 f"byte for byte, {len(self.differed)} differ, {self.no_detections} without their detections; "
-                f"{self.rejected} inputs refused")
+                f"{self.rejected} inputs refused{apart}")
 
 
 class _Clock:
@@ -60,7 +78,7 @@ class _Clock:
 
 def localizer_config_for(rec: Recording, localizer: str | None = None) -> VehicleConfig:
     """The localizer's config: the one the recording carries, else the shipped defaults for the team,
-    localizer and UAV its crowds messages name (every other vehicle taken as a UGV)."""
+    localizer and UAV its crowds messages name, with the vehicles that publish plans as its UGVs."""
     from .config import vehicle_config_from_dict  # noqa: PLC0415
     from .io.files import tomllib  # noqa: PLC0415
 
@@ -74,7 +92,8 @@ def localizer_config_for(rec: Recording, localizer: str | None = None) -> Vehicl
         return vehicle_config_from_dict(tomllib.loads(text), f"<recording: uvteam.config.{loc}>")
     first = messages.decode(messages.Crowds, crowds[0].data)
     team = crowds[0].key.split("/")[1]
-    return VehicleConfig(team, loc, "localizer", localizer=LocalizerServiceConfig(uav=first.uav))
+    ugvs = tuple(sorted({keys.vehicle_of(r.key) for r in rec.records if keys.topic_of(r.key) == "plan"}))
+    return VehicleConfig(team, loc, "localizer", localizer=LocalizerServiceConfig(uav=first.uav, ugvs=ugvs))
 
 
 def replay_localizer(rec: Recording, cfg: VehicleConfig) -> ReplayReport:
