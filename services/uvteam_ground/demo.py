@@ -12,6 +12,10 @@ played for real: a UGV lost at t seconds has its service killed (SIGKILL) at t.
     uvteam demo --scenario ../shared/scenarios/paper-fig8-lm6.toml --duration 20
     uvteam demo --secure                              the same under the secure profile (uvteam certs:
                                                       TLS, client certificates, access control)
+    uvteam demo -l tcp/0.0.0.0:7447                   its router also listens there: watch from another host
+
+The zenoh flags (-l/--listen, -e/--connect, --cfg, --zenoh-config) go to the router the demo starts;
+the team's own processes stay on loopback.
 """
 
 from __future__ import annotations
@@ -37,7 +41,8 @@ from uvteam.config import vehicle_config_to_toml
 from uvteam.errors import ConfigError
 from uvteam.geo import LocalFrame
 from uvteam.io.files import load_scenario
-from uvteam.io.zenoh_bus import ZenohBus
+from uvteam.io.recording import McapRecorder, attach_zenoh
+from uvteam.io.zenoh_bus import ZenohBus, add_bus_args, parse_cfg
 from uvteam.messages import Crowds, Status, Truth
 from uvteam.scoring import BusScorer, summarize
 from uvteam.service import StopFlag
@@ -75,7 +80,8 @@ class Team:
 
     def __init__(self, scenario_path: str, *, team: str = "demo", seed: int | None = None,
                  duration_s: float | None = None, workdir: str | None = None, log_level: str = "INFO",
-                 frames: str = "pixels", secure: bool = False) -> None:
+                 frames: str = "pixels", secure: bool = False, map_http: str | None = None,
+                 annotate: bool = False, router_args: tuple[str, ...] = ()) -> None:
         if frames not in FRAMES:
             raise ValueError(f"frames must be 'pixels' or 'sensor', got {frames!r}")
         self.sc = load_scenario(scenario_path)
@@ -105,6 +111,14 @@ class Team:
             write_team(Roster(team, (self.uav,), tuple(self.ugvs), ((self.localizer, self.uav),), ("sim",), ("view",)),
                        self.secrets, router_hosts=("127.0.0.1",), listen=(self.endpoint,))
             self.configs = {v: replace(c, bus=self.member_bus(v)) for v, c in self.configs.items()}
+        self.annotate_url = None
+        if annotate and frames == "pixels":   # what the UAV sees, drawn, as MJPEG on a loopback port
+            port = free_port()
+            u = self.configs[self.uav]
+            self.configs[self.uav] = replace(u, uav=replace(u.uav, annotate_http=f"127.0.0.1:{port}"))
+            self.annotate_url = f"http://127.0.0.1:{port}/stream.mjpg"
+        self.map_http = map_http
+        self.router_args = tuple(router_args)     # zenoh flags the user gave the demo, for its router
         for vid, cfg in self.configs.items():
             (self.dir / f"{vid}.toml").write_text(vehicle_config_to_toml(cfg, f"uvteam demo: {vid} ({cfg.role})"))
 
@@ -134,7 +148,7 @@ class Team:
 
     def start(self) -> None:
         self._spawn("router", ["router", "--zenoh-config", str(self.secrets / "router.json5")] if self.secure
-                    else ["router", "--listen", self.endpoint])
+                    else ["router", "--listen", self.endpoint, *self.router_args])
         if not wait_port(self.router_port, 15.0):
             raise RuntimeError(f"the router did not come up; see {self.dir / 'logs' / 'router.log'}")
         ll = ["--log-level", self.log_level]
@@ -142,6 +156,14 @@ class Team:
         self._spawn(self.uav, ["uav", "--config", str(self.dir / f"{self.uav}.toml"), *ll])
         for u in self.ugvs:
             self._spawn(u, ["ugv", "--config", str(self.dir / f"{u}.toml"), *ll])
+        if self.map_http:
+            join = ["--zenoh-config", str(self.secrets / "view.json5")] if self.secure else ["--connect", self.endpoint]
+            self._spawn("map", ["map", "--team", self.team, "--http", self.map_http, *join, *ll,
+                                *(["--video", self.annotate_url] if self.annotate_url else [])])
+
+    @property
+    def map_url(self) -> str | None:
+        return f"http://{self.map_http}/" if self.map_http else None
 
     def start_sim(self) -> None:
         sysid = self.layout.system_ids
@@ -167,24 +189,27 @@ class Team:
         return [n for n, p in self.procs.items() if p.poll() not in (None, 0) and n not in self.expected_exit]
 
     def stop(self, timeout_s: float = 8.0) -> dict[str, int | None]:
-        order = ["sim", "localizer", self.uav] + self.ugvs + ["router"]   # nobody sees a teammate leave
-        for n in order:
-            p = self.procs.get(n)
-            if p is not None and p.poll() is None:
-                try:
-                    os.killpg(p.pid, signal.SIGTERM)
-                except ProcessLookupError:
-                    pass
+        """SIGTERM in stages, each waited for: the watchers and the simulator, then the localizer and the
+        UAV, then the UGVs, then the router; so no service sees a teammate leave and warns of it."""
+        stages = [["map", "sim"], ["localizer", self.uav], list(self.ugvs), ["router"]]
         end = time.monotonic() + timeout_s
-        for n in order:
-            p = self.procs.get(n)
-            if p is None:
-                continue
-            try:
-                p.wait(timeout=max(end - time.monotonic(), 0.1))
-            except subprocess.TimeoutExpired:
-                os.killpg(p.pid, signal.SIGKILL)
-                p.wait(timeout=5)
+        for stage in stages:
+            for n in stage:
+                p = self.procs.get(n)
+                if p is not None and p.poll() is None:
+                    try:
+                        os.killpg(p.pid, signal.SIGTERM)
+                    except ProcessLookupError:
+                        pass
+            for n in stage:
+                p = self.procs.get(n)
+                if p is None:
+                    continue
+                try:
+                    p.wait(timeout=max(end - time.monotonic(), 0.1))
+                except subprocess.TimeoutExpired:
+                    os.killpg(p.pid, signal.SIGKILL)
+                    p.wait(timeout=5)
         for f in self.logs.values():
             f.close()
         return {n: p.returncode for n, p in self.procs.items()}
@@ -251,11 +276,18 @@ class Observer:
         return s
 
 
-def run_demo(team: Team, stop: StopFlag, *, live: bool = True, out=sys.stdout) -> tuple[dict, dict]:
+def run_demo(team: Team, stop: StopFlag, *, live: bool = True, out=sys.stdout,
+             record: str | None = None) -> tuple[dict, dict]:
     obs = Observer(team)
     team.start()
     bus = ZenohBus.open(team.member_bus("view"))
+    recorder, rec_subs = None, []
     try:
+        if record:   # every key of the team and the services' configs, from before the simulator starts
+            recorder = McapRecorder(record, team.team, recorder="uvteam demo --record")
+            for vid, cfg in team.configs.items():
+                recorder.add_config(vid, vehicle_config_to_toml(cfg, f"uvteam demo: {vid} ({cfg.role})"))
+            rec_subs = attach_zenoh(bus.session, team.team, recorder)
         bus.subscribe(keys.key(team.team, "sim", "truth"), Truth, obs.scorer.on_truth)
         bus.subscribe(keys.key(team.team, team.localizer, "crowds"), Crowds, obs.scorer.on_crowds)
         bus.subscribe(keys.all_vehicles(team.team, "status"), Status, obs.on_status)
@@ -293,8 +325,47 @@ def run_demo(team: Team, stop: StopFlag, *, live: bool = True, out=sys.stdout) -
         time.sleep(1.5)  # the last crowds messages and one more status from every service
     finally:
         codes = team.stop()
+        for sub in rec_subs:
+            sub.undeclare()
+        if recorder is not None:
+            recorder.close()
+            print(f"recorded {recorder.messages} messages to {record} (open it in Foxglove, or "
+                  f"`uvteam replay {record} --localizer`)", file=out, flush=True)
         bus.close()
     return obs.summary(), codes
+
+
+def _router_args(args) -> tuple[str, ...]:
+    """The zenoh flags given to the demo, for the router it starts (the team itself stays on loopback):
+    ``-l tcp/0.0.0.0:7447`` lets a laptop on the network watch, ``-e`` joins another router, ``--cfg``
+    tunes it."""
+    if args.mode not in (None, "router"):
+        raise ConfigError("--mode", "mode", f"the demo's flags are for its router, which runs in mode router, "
+                                            f"not {args.mode}")
+    if args.secure and (args.listen or args.connect or args.cfg or args.zenoh_config):
+        raise ConfigError("--secure", "zenoh flags", "the secure profile's router uses its generated config only")
+    parse_cfg(args.cfg)
+    out: list[str] = []
+    for flag, values in (("--listen", args.listen), ("--connect", args.connect), ("--cfg", args.cfg)):
+        for v in values:
+            out += [flag, v]
+    if args.zenoh_config:
+        out += ["--zenoh-config", str(Path(args.zenoh_config).resolve())]
+    return tuple(out)
+
+
+def _map_address(wanted: str) -> str:
+    """``wanted`` (HOST:PORT) when that port is free on loopback, else the same host on a free port."""
+    host, _, port = wanted.rpartition(":")
+    if port == "0":
+        return f"{host}:{free_port()}"
+    with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET) as s:
+        try:
+            s.bind((host.strip("[]"), int(port)))
+            return wanted
+        except (OSError, ValueError):
+            pass
+    return f"{host}:{free_port()}"
 
 
 def _table(rows: list[tuple[str, str]]) -> str:
@@ -334,15 +405,25 @@ def main(argv: list[str] | None = None) -> int:
                     help="pixels: the simulator renders camera frames and the UAV service detects on them "
                          "(default); sensor: the simulator's sensor model replaces the UAV's vision")
     ap.add_argument("--json", metavar="FILE", help="also write the summary as JSON")
+    ap.add_argument("--record", metavar="FILE.mcap",
+                    help="record every key of the team and the services' configs to an MCAP file (uvteam replay, "
+                         "Foxglove)")
     ap.add_argument("--workdir", help="where configs and logs go (default: a new temporary folder)")
+    ap.add_argument("--map-http", default="127.0.0.1:8770", metavar="HOST:PORT",
+                    help="where the live map is served (default 127.0.0.1:8770, or a free port when that is taken; "
+                         "port 0: any free port)")
+    ap.add_argument("--no-map", action="store_true", help="do not start the live map (uvteam map)")
     ap.add_argument("--secure", action="store_true",
                     help="run under the secure profile: a team CA and certificates (uvteam certs), TLS with client "
                          "certificates, and access control on the router")
+    add_bus_args(ap)
     args = ap.parse_args(argv)
     stop = StopFlag()
     try:
+        router_args = _router_args(args)
         team = Team(args.scenario, seed=args.seed, duration_s=args.duration, workdir=args.workdir, frames=args.frames,
-                    secure=args.secure)
+                    secure=args.secure, map_http=None if args.no_map else _map_address(args.map_http),
+                    annotate=not args.no_map, router_args=router_args)
     except (ConfigError, OSError) as exc:
         print(f"uvteam demo: {exc}", file=sys.stderr)
         return 2
@@ -350,9 +431,13 @@ def main(argv: list[str] | None = None) -> int:
     tap = " ".join(uvteam_command() + ["tap", "--summary", "--team", team.team, *join])
     mapcmd = " ".join(uvteam_command() + ["map", "--team", team.team, *join])
     print(f"uvteam demo: {team.sc.name}, {len(team.ugvs)} UGVs, {team.duration_s:.0f} s; router {team.endpoint}\n"
-          f"  configs and logs: {team.dir}\n  watch from another terminal: {tap}\n"
-          f"  or on a map (then open http://127.0.0.1:8770/): {mapcmd}", flush=True)
-    summary, codes = run_demo(team, stop, live=not args.quiet)
+          f"  configs and logs: {team.dir}\n  watch from another terminal: {tap}", flush=True)
+    if team.map_url:
+        print(f"  live map: open {team.map_url} in a browser"
+              + (" (with what the UAV sees beside it)" if team.annotate_url else ""), flush=True)
+    else:
+        print(f"  or on a map (then open http://127.0.0.1:8770/): {mapcmd}", flush=True)
+    summary, codes = run_demo(team, stop, live=not args.quiet, record=args.record)
     print_summary(team, summary, codes)
     if args.json:
         try:

@@ -16,7 +16,7 @@ import sys
 
 from uvteam.bus import BusConfig
 from uvteam.errors import ConfigError
-from uvteam.io.zenoh_bus import add_bus_args, zenoh_config
+from uvteam.io.zenoh_bus import add_bus_args, parse_cfg, zenoh_config
 from uvteam.service import StopFlag, setup_logging
 
 log = logging.getLogger("uvteam.router")
@@ -39,11 +39,12 @@ def file_listen_endpoints(config_file: str | None) -> tuple[str, ...]:
 
 
 def router_bus_config(config_file: str | None, connect: tuple[str, ...],
-                      listen: tuple[str, ...]) -> tuple[BusConfig, tuple[str, ...]]:
-    """The router's BusConfig and the endpoints it will listen on: flags over the file over the default."""
+                      listen: tuple[str, ...], cfg: tuple[tuple[str, str], ...] = ()) -> tuple[BusConfig, tuple[str, ...]]:
+    """The router's BusConfig and the endpoints it will listen on: flags over the file over the default
+    (a --cfg of listen/endpoints is applied last, over all of them)."""
     from_file = file_listen_endpoints(config_file)
     cfg = BusConfig(config_file=config_file, mode="router", connect=connect,
-                    listen=listen or (() if from_file else DEFAULT_LISTEN))
+                    listen=listen or (() if from_file else DEFAULT_LISTEN), cfg=cfg)
     return cfg, listen or from_file or DEFAULT_LISTEN
 
 
@@ -56,7 +57,10 @@ def main(argv: list[str] | None = None) -> int:
     import zenoh  # noqa: PLC0415
 
     try:
-        cfg, endpoints = router_bus_config(args.zenoh_config, tuple(args.connect), tuple(args.listen))
+        if args.mode not in (None, "router"):
+            raise ConfigError("--mode", "mode", f"uvteam router runs in mode router, not {args.mode}")
+        cfg, endpoints = router_bus_config(args.zenoh_config, tuple(args.connect), tuple(args.listen),
+                                           parse_cfg(args.cfg))
         conf = zenoh_config(cfg)
     except ConfigError as exc:
         print(f"uvteam router: configuration error: {exc}", file=sys.stderr)

@@ -20,8 +20,8 @@ from collections import defaultdict, deque
 
 from uvteam import keys, messages
 from uvteam.bus import BusConfig
-from uvteam.io.zenoh_bus import ZenohBus, add_bus_args
-from uvteam.errors import LinkError, MessageError
+from uvteam.io.zenoh_bus import ZenohBus, add_bus_args, bus_config_from_args
+from uvteam.errors import ConfigError, LinkError, MessageError
 from uvteam.service import StopFlag
 from uvteam.vocab import is_id
 
@@ -50,10 +50,12 @@ def main(argv: list[str] | None = None) -> int:
     seen = defaultdict(lambda: {"n": 0, "last": 0.0, "first": time.time(), "times": deque(maxlen=100)})
     alive: dict[str, bool] = {}
     last_msg: dict[str, object] = {}
-    cfg = BusConfig(config_file=args.zenoh_config, mode=args.mode or "client" if args.connect else args.mode,
-                    connect=tuple(args.connect), listen=tuple(args.listen))
     try:
+        cfg = bus_config_from_args(args, BusConfig(mode="client") if args.connect else None)
         bus = ZenohBus.open(cfg)
+    except ConfigError as exc:
+        print(f"uvteam tap: configuration error: {exc}", file=sys.stderr)
+        return 2
     except LinkError as exc:
         print(f"uvteam tap: {exc}", file=sys.stderr)
         return 3

@@ -73,6 +73,9 @@ def main(argv: list[str] | None = None) -> int:
     stop = StopFlag()
     try:
         return run(sc, args, stop)
+    except ConfigError as exc:
+        log.error("configuration error: %s", exc)
+        return 2
     except LinkError as exc:
         log.error("link error: %s", exc)
         return 3

@@ -70,7 +70,8 @@ class Blobs:
         area = _array("area_px", self.area_px, 0)
         n = len(xy)
         if len(box) != n or len(area) != n:
-            raise ValueError(f"blobs: {n} centres, {len(box)} boxes, {len(area)} areas")
+            raise ValueError(f"blobs: one row per blob in xy_px, xyxy_px and area_px, got {n} centres, {len(box)} boxes, "
+                             f"{len(area)} areas")
         if (box[:, 2] < box[:, 0]).any() or (box[:, 3] < box[:, 1]).any():
             raise ValueError("xyxy_px: a box with x1 < x0 or y1 < y0")
         if (area < 0).any():

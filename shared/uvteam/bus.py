@@ -37,6 +37,7 @@ class BusConfig:
     listen: tuple[str, ...] = ()
     shared_memory: bool | None = None
     connect_timeout_ms: int | None = None   # how long opening waits for a connect endpoint (-1: forever)
+    cfg: tuple[tuple[str, str], ...] = ()   # (KEY, JSON5 VALUE) inserted last, as zenoh's --cfg KEY:VALUE
 
 
 class Bus(Protocol):
@@ -138,7 +139,8 @@ class InMemoryBus(Decoding):
         self.put_raw(key, messages.encode(msg))
         self.published += 1
 
-    def put_raw(self, key: str, raw: bytes) -> None:
+    def put_raw(self, key: str, raw: bytes, encoding: str | None = None) -> None:
+        """Bytes as they are to every matching subscriber (``encoding`` is zenoh's; unused here)."""
         for expr, cls, handler, owner in list(self._hub["subs"]):
             if keyexpr_matches(expr, key):
                 owner._deliver(key, raw, cls, handler)

@@ -21,6 +21,7 @@ a default is said beside it.
 from __future__ import annotations
 
 import math
+import re
 import types
 import typing
 from dataclasses import MISSING, dataclass, field, fields, replace
@@ -43,6 +44,8 @@ def _choice(choices: tuple) -> dict:
     return {"choices": choices}
 
 
+_HOSTPORT = re.compile(r"\[?([^\[\]\s]+?)\]?:(\d{1,5})")
+VIDEO_SUFFIXES = (".mp4", ".avi")
 ID = {"id": True}
 IDS = {"ids": True}
 POSITIVE = _num(0.0, None, lo_open=True)
@@ -75,6 +78,10 @@ class UavConfig:
     heading_sigma_deg: float = field(default=3.0, metadata=POSITIVE)    # ... of its yaw (compass)
     alt_sigma_m: float = field(default=1.0, metadata=POSITIVE)          # ... of its height above ground
     position_sigma_m: float = field(default=0.0, metadata=NON_NEGATIVE)  # ... of its position; 0: the autopilot's accuracy
+    # what the UAV sees, drawn (uvteam.vision.annotate: blobs, landmarks, the localizer's crowds), "pixels" only:
+    annotate_http: str = field(default="", metadata={"hostport": True})       # MJPEG over HTTP on HOST:PORT ("" = off;
+    #                                                                            e.g. 127.0.0.1:8771; a public address shows it to all)
+    annotate_video: str = field(default="", metadata={"video_file": True})    # also write it to this .mp4 or .avi ("" = off)
 
 
 @dataclass(frozen=True)
@@ -191,6 +198,12 @@ def _check_field(src: str, key: str, f, v: Any) -> Any:
             raise bad(f"expected ids (1-32 of A-Z a-z 0-9 _ -), got {bad_ids[0]!r}")
         if len(set(v)) != len(v):
             raise bad("ids must not repeat")
+    if meta.get("hostport") and v:
+        m = _HOSTPORT.fullmatch(v)
+        if not m or not 0 < int(m.group(2)) <= 65535:
+            raise bad(f"expected HOST:PORT (e.g. 127.0.0.1:8771, [::1]:8771), got {v!r}")
+    if meta.get("video_file") and v and Path(v).suffix.lower() not in VIDEO_SUFFIXES:
+        raise bad(f"expected a {' or '.join(VIDEO_SUFFIXES)} file, got {v!r}")
     if meta.get("color_map"):
         for color, ugv in v.items():
             if color not in COLORS:
@@ -242,7 +255,7 @@ def vehicle_config_from_dict(raw: dict, src: str, *, base_dir: Path | None = Non
     if bus_override is not None:
         bus = replace(bus, **{k: getattr(bus_override, k) for k in ("config_file", "mode")
                                if getattr(bus_override, k)},
-                      **{k: getattr(bus_override, k) for k in ("connect", "listen") if getattr(bus_override, k)})
+                      **{k: getattr(bus_override, k) for k in ("connect", "listen", "cfg") if getattr(bus_override, k)})
     cfg = VehicleConfig(
         team=v["team"], id=v["id"], role=v["role"], bus=bus,
         autopilot=_section(AutopilotConfig, raw.get("autopilot", {}), src, "autopilot"),

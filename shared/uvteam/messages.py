@@ -39,13 +39,16 @@ from .vocab import QUALITIES, SERVICES, is_id
 __all__ = [
     "Fix", "Waypoint", "Plan", "CameraPoseReport", "Detections", "Frame", "Person", "PeopleSeen", "Crowd", "Crowds", "TruthCrowd",
     "TruthUgv", "Truth", "Status", "encode", "decode", "as_dict", "MESSAGE_TYPES", "BY_TOPIC", "ENCODING",
-    "encoding_of", "MAX_LIST", "MAX_BLOBS",
+    "encoding_of", "MAX_LIST", "MAX_BLOBS", "field_range",
 ]
 
 ENCODING = "application/msgpack"
 MAX_LIST = 10_000
 MAX_BLOBS = 2_000            # blobs in one frame: a crowd scene has tens; more is a broken or hostile sender
 MAX_STAMP_S = 1e10           # the year 2286: a stamp beyond is garbage
+MAX_STR_LEN = 256            # characters in a string
+MAX_MAP_LEN = 256            # entries in a map (Status.metrics)
+MAX_INT = 1 << 53            # integers are in [0, 2^53): exact in a double, so in JSON too
 FRAME_ENCODINGS = ("jpeg", "bgr8")
 
 
@@ -343,28 +346,38 @@ def as_dict(msg: Any) -> dict:
 Checker = Callable[[str, Any], Any]
 
 
-def _range(schema: str, name: str, v: float) -> None:
-    def bad(why: str) -> MessageError:
-        return MessageError(schema, name, f"{why}, got {v!r}")
-
+def field_range(name: str) -> tuple[float | None, float | None, bool, bool, str] | None:
+    """The range a float field is held to, read off its name: ``(lo, hi, lo_closed, hi_closed, why)``
+    (None for no bound), or None when the name implies none. The codec checks it; the published JSON
+    Schemas (:mod:`uvteam.protocol`) state it."""
     if name.endswith("lat_deg"):
-        if not -90.0 <= v <= 90.0:
-            raise bad("expected latitude in [-90, 90]")
-    elif name.endswith("lon_deg"):
-        if not -180.0 <= v <= 180.0:
-            raise bad("expected longitude in [-180, 180]")
-    elif name in ("heading_deg", "bearing_deg", "yaw_deg"):
-        if not 0.0 <= v < 360.0:
-            raise bad("expected a heading in [0, 360)")
-    elif name.endswith("_acc_m") or name.startswith("sigma_") or name in ("radius95_m", "distance_m", "alt_agl_m"):
-        if v < 0.0:
-            raise bad("expected a non-negative value")
-    elif name == "stamp_s":
-        if not 0.0 < v < MAX_STAMP_S:
-            raise bad(f"expected a UNIX time in (0, {MAX_STAMP_S:.0e})")
+        return -90.0, 90.0, True, True, "expected latitude in [-90, 90]"
+    if name.endswith("lon_deg"):
+        return -180.0, 180.0, True, True, "expected longitude in [-180, 180]"
+    if name in ("heading_deg", "bearing_deg", "yaw_deg"):
+        return 0.0, 360.0, True, False, "expected a heading in [0, 360)"
+    if name.endswith("_acc_m") or name.startswith("sigma_") or name in ("radius95_m", "distance_m", "alt_agl_m"):
+        return 0.0, None, True, True, "expected a non-negative value"
+    if name == "stamp_s":
+        return 0.0, MAX_STAMP_S, False, False, f"expected a UNIX time in (0, {MAX_STAMP_S:.0e})"
+    return None
+
+
+def _range(schema: str, name: str) -> Callable[[float], None]:
+    r = field_range(name)
+    if r is None:
+        return lambda v: None
+    lo, hi, lo_closed, hi_closed, why = r
+
+    def check(v: float) -> None:
+        if (lo is not None and (v < lo if lo_closed else v <= lo)) or (hi is not None and (v > hi if hi_closed else v >= hi)):
+            raise MessageError(schema, name, f"{why}, got {v!r}")
+    return check
 
 
 def _float(schema: str, name: str) -> Checker:
+    in_range = _range(schema, name)
+
     def check(_s: str, v: Any) -> float:
         if v.__class__ is not float:
             if isinstance(v, bool) or not isinstance(v, (int, float)):
@@ -372,7 +385,7 @@ def _float(schema: str, name: str) -> Checker:
             v = float(v)
         if not math.isfinite(v):
             raise MessageError(schema, name, f"expected a finite number, got {v!r}")
-        _range(schema, name, v)
+        in_range(v)
         return v
     return check
 
@@ -381,7 +394,7 @@ def _int(schema: str, name: str) -> Checker:
     def check(_s: str, v: Any) -> int:
         if v.__class__ is not int:
             raise MessageError(schema, name, f"expected an integer, got {type(v).__name__}")
-        if not 0 <= v < 1 << 53:
+        if not 0 <= v < MAX_INT:
             raise MessageError(schema, name, f"expected an integer in [0, 2^53), got {v}")
         return v
     return check
@@ -391,8 +404,8 @@ def _str(schema: str, name: str, is_ident: bool) -> Checker:
     def check(_s: str, v: Any) -> str:
         if v.__class__ is not str:
             raise MessageError(schema, name, f"expected a string, got {type(v).__name__}")
-        if len(v) > 256:
-            raise MessageError(schema, name, f"string longer than 256 characters ({len(v)})")
+        if len(v) > MAX_STR_LEN:
+            raise MessageError(schema, name, f"string longer than {MAX_STR_LEN} characters ({len(v)})")
         if is_ident and not is_id(v):
             raise MessageError(schema, name, f"expected an id (1-32 of A-Z a-z 0-9 _ -), got {v!r}")
         return v
@@ -452,7 +465,7 @@ def _mapping(schema: str, name: str, value: Checker) -> Checker:
     def check(s: str, v: Any) -> dict:
         if v.__class__ is not dict:
             raise MessageError(schema, name, f"expected a map, got {type(v).__name__}")
-        if len(v) > 256:
+        if len(v) > MAX_MAP_LEN:
             raise MessageError(schema, name, f"map too long ({len(v)})")
         out = {}
         for k, x in v.items():

@@ -27,7 +27,7 @@ ID_PATTERN = re.compile(r"^[A-Za-z0-9_-]{1,32}$")
 
 
 def is_id(value: object) -> bool:
-    return isinstance(value, str) and ID_PATTERN.match(value) is not None
+    return isinstance(value, str) and ID_PATTERN.fullmatch(value) is not None   # fullmatch: "$" would let "id\n" pass
 
 
 Role = Literal["uav", "ugv", "localizer"]

@@ -164,7 +164,7 @@ WIRING = {"bus": {"zenoh_config", "mode", "connect", "listen"},
 
 @pytest.mark.parametrize("path", sorted((REPO / "deploy" / "vehicles").glob("*.toml")), ids=lambda p: p.name)
 def test_shipped_configs_set_no_tuning_and_use_the_secure_profile(path):
-    import tomllib
+    from uvteam.io.files import tomllib  # tomli before Python 3.11
 
     raw = tomllib.loads(path.read_text())
     for section, keys_set in raw.items():

@@ -3,7 +3,7 @@
 import json
 import math
 import sqlite3
-import tomllib
+from uvteam.io.files import tomllib  # tomli before Python 3.11
 from dataclasses import replace
 from fnmatch import fnmatch
 from pathlib import Path

@@ -3,12 +3,15 @@
     uvteam map --team demo --connect tcp/127.0.0.1:7447             then open http://127.0.0.1:8770/
     uvteam map --team border1 --connect tcp/10.0.0.1:7447 --basemap maps/sasabe.mbtiles
     uvteam map --team border1 --mode peer --listen tcp/0.0.0.0:7448 --http 127.0.0.1:9000
+    uvteam map --team demo -e tcp/127.0.0.1:7447 --video http://127.0.0.1:8771/stream.mjpg
 
 Draws the UAV with its camera footprint, the UGVs with heading, trail, plan and alive/stale state,
 and every crowd with its footprint, 95 % circle, velocity arrow, track and quality; a side list
 gives each crowd's lat/lon and MGRS. Without a basemap the map is a metric grid (metres east/north
-of the first fix, or --origin) with a scale bar and a north arrow. The page is served from
-127.0.0.1 unless --http says otherwise; it gets updates by server-sent events at --rate-hz.
+of the first fix, or --origin) with a scale bar and a north arrow. With --video, what the UAV sees
+(its annotated camera, MJPEG from the UAV service's [uav].annotate_http) is shown beside the map.
+The page is served from 127.0.0.1 unless --http says otherwise; it gets updates by server-sent
+events at --rate-hz.
 Camera frames are never subscribed to.
 """
 
@@ -31,7 +34,7 @@ from urllib.parse import urlsplit
 from uvteam import keys, messages
 from uvteam.bus import BusConfig
 from uvteam.errors import ConfigError, LinkError
-from uvteam.io.zenoh_bus import ZenohBus, add_bus_args
+from uvteam.io.zenoh_bus import ZenohBus, add_bus_args, bus_config_from_args
 from uvteam.service import StopFlag, setup_logging
 
 from .state import MapConfig, TeamView
@@ -84,8 +87,8 @@ class MapServer(ThreadingHTTPServer):
 
     def __init__(self, addr: tuple[str, int], view: TeamView, *, basemaps: list[TileSource] = (),
                  rate_hz: float = 5.0, center: tuple[float, float] | None = None, zoom: int | None = None,
-                 bus_counts=None) -> None:
-        self.view, self.basemaps, self.rate_hz = view, list(basemaps), rate_hz
+                 bus_counts=None, video: str | None = None) -> None:
+        self.view, self.basemaps, self.rate_hz, self.video = view, list(basemaps), rate_hz, video
         self.center, self.zoom = center, zoom
         self.bus_counts = bus_counts or (lambda: {})
         self.stopping = threading.Event()
@@ -101,7 +104,8 @@ class MapServer(ThreadingHTTPServer):
 
     def client_config(self) -> dict:
         return {
-            "team": self.view.cfg.team, "rate_hz": self.rate_hz, "arrow_s": self.view.cfg.arrow_s, "center": self.center, "zoom": self.zoom,
+            "team": self.view.cfg.team, "video": self.video,
+            "rate_hz": self.rate_hz, "arrow_s": self.view.cfg.arrow_s, "center": self.center, "zoom": self.zoom,
             "origin": list(self.view.cfg.origin) if self.view.cfg.origin else None,
             "basemaps": [{"name": b.info.name, "url": f"tiles/{i}/{{z}}/{{x}}/{{y}}.{b.info.fmt}",
                           "min_zoom": b.info.min_zoom, "max_zoom": b.info.max_zoom, "bounds": b.info.bounds,
@@ -242,11 +246,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--center", default=None, metavar="LAT,LON", help="initial map centre (default: fit the team)")
     ap.add_argument("--zoom", type=int, default=None, help="initial zoom with --center (default 18)")
     ap.add_argument("--rate-hz", type=float, default=5.0, help="most updates a second sent to a browser (default 5)")
+    ap.add_argument("--video", default=None, metavar="URL",
+                    help="an MJPEG stream to show beside the map: what the UAV sees, from the UAV service's "
+                         "[uav].annotate_http, e.g. http://127.0.0.1:8771/stream.mjpg")
     ap.add_argument("--duration", type=float, default=0.0, help="exit after this many seconds (0 = until Ctrl-C)")
     ap.add_argument("--log-level", default="INFO", choices=["DEBUG", "INFO", "WARNING", "ERROR"])
     add_bus_args(ap)
     args = ap.parse_args(argv)
     setup_logging("map", args.log_level)
+    if args.video is not None and not re.fullmatch(r"https?://\S+", args.video):
+        print(f"uvteam map: --video must be an http:// or https:// URL, got {args.video!r}", file=sys.stderr)
+        return 2
     basemaps: list[TileSource] = []
     try:
         host, port = parse_hostport(args.http)
@@ -262,13 +272,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"uvteam map: {exc}", file=sys.stderr)
         return 2
     view = TeamView(cfg)
-    bcfg = BusConfig(config_file=args.zenoh_config, mode=args.mode or ("client" if args.connect else None),
-                     connect=tuple(args.connect), listen=tuple(args.listen))
     try:
-        bus = ZenohBus.open(bcfg)
+        bus = ZenohBus.open(bus_config_from_args(args, BusConfig(mode="client") if args.connect else None))
     except (LinkError, ConfigError) as exc:
         print(f"uvteam map: {exc}", file=sys.stderr)
-        return 3
+        return 2 if isinstance(exc, ConfigError) else 3
     stop = StopFlag()
     try:
         with bus:
@@ -280,7 +288,8 @@ def main(argv: list[str] | None = None) -> int:
             try:
                 srv = MapServer((host, port), view, basemaps=basemaps, rate_hz=args.rate_hz, center=center,
                                 zoom=args.zoom, bus_counts=lambda: {"received": bus.received,
-                                                                    "rejected": bus.rejected_total})
+                                                                    "rejected": bus.rejected_total},
+                                video=args.video)
             except OSError as exc:
                 print(f"uvteam map: cannot serve on {args.http}: {exc}", file=sys.stderr)
                 return 3

@@ -19,7 +19,7 @@ from .. import messages
 from ..bus import BusConfig, Decoding
 from ..errors import ConfigError, LinkError
 
-__all__ = ["ZenohBus", "zenoh_config", "add_bus_args", "bus_config_from_args"]
+__all__ = ["ZenohBus", "zenoh_config", "add_bus_args", "bus_config_from_args", "parse_cfg", "BUS_FLAGS_HELP"]
 
 log = logging.getLogger(__name__)
 
@@ -32,7 +32,7 @@ BUILT_IN = {"scouting/multicast/enabled": "false", "transport/link/tx/lease": "3
 
 def zenoh_config(cfg: BusConfig):
     """A :class:`BusConfig` as a ``zenoh.Config`` (file first, or :data:`BUILT_IN`; then the explicit
-    fields over it)."""
+    fields over it; then each ``--cfg KEY:VALUE``)."""
     import zenoh  # noqa: PLC0415
 
     if cfg.config_file:
@@ -64,25 +64,60 @@ def zenoh_config(cfg: BusConfig):
         raise
     except Exception as exc:
         raise ConfigError(cfg.config_file or "<zenoh>", "endpoints", str(exc)) from None
+    for key, value in cfg.cfg:
+        try:
+            conf.insert_json5(key, value)
+        except Exception as exc:  # ZError: an unknown key, or a value of the wrong type or not JSON5
+            raise ConfigError("--cfg", key, f"zenoh refuses {value!r}: {exc}") from None
     return conf
 
 
+def parse_cfg(items) -> tuple[tuple[str, str], ...]:
+    """``--cfg KEY:VALUE`` items (zenoh's examples' syntax: VALUE is JSON5, inserted at the config path
+    KEY) -> pairs; ConfigError for one without a colon."""
+    out = []
+    for item in items or ():
+        key, sep, value = item.partition(":")
+        if not sep or not key.strip() or not value.strip():
+            raise ConfigError("--cfg", item, "expected KEY:VALUE, e.g. 'transport/link/tx/lease:3000' or "
+                                             "'scouting/multicast/enabled:false'")
+        out.append((key.strip(), value.strip()))
+    return tuple(out)
+
+
+BUS_FLAGS_HELP = """zenoh flags (the same on every command that opens a session, as in zenoh's own examples):
+  -m, --mode peer|client|router   session mode (default: the config's, else peer; tap, map, record and replay:
+                                  client when --connect is given; uvteam router: router)
+  -e, --connect ENDPOINT          connect to ENDPOINT, e.g. tcp/10.0.0.1:7447 (repeatable)
+  -l, --listen ENDPOINT           listen on ENDPOINT, e.g. tcp/0.0.0.0:7447 (repeatable)
+  --zenoh-config FILE             a zenoh JSON5 config file (deploy/zenoh/); the flags above go over it
+  --cfg KEY:VALUE                 insert the JSON5 VALUE at config path KEY, last, e.g.
+                                  --cfg transport/link/tx/lease:3000 --cfg 'connect/endpoints:["tcp/10.0.0.1:7447"]'
+Without --zenoh-config, multicast scouting is off: say where to connect or listen."""
+
+
 def add_bus_args(ap) -> None:
-    """The same zenoh flags on every command, as zenoh's own examples have them."""
-    g = ap.add_argument_group("zenoh")
-    g.add_argument("--zenoh-config", metavar="FILE", help="zenoh JSON5 config (see deploy/zenoh/)")
-    g.add_argument("--mode", choices=["peer", "client", "router"], help="zenoh session mode")
+    """The same zenoh flags on every command, as zenoh's own examples have them (:data:`BUS_FLAGS_HELP`)."""
+    g = ap.add_argument_group("zenoh", "the same on every command that opens a zenoh session (docs: README, "
+                                       "'zenoh flags')")
+    g.add_argument("--zenoh-config", metavar="FILE", help="zenoh JSON5 config (see deploy/zenoh/); the flags go over it")
+    g.add_argument("--mode", "-m", choices=["peer", "client", "router"], help="zenoh session mode")
     g.add_argument("--connect", "-e", action="append", default=[], metavar="ENDPOINT",
                    help="endpoint to connect to, e.g. tcp/192.168.1.10:7447 (repeatable)")
     g.add_argument("--listen", "-l", action="append", default=[], metavar="ENDPOINT",
                    help="endpoint to listen on, e.g. tcp/0.0.0.0:7447 (repeatable)")
+    g.add_argument("--cfg", action="append", default=[], metavar="KEY:VALUE",
+                   help="insert a JSON5 VALUE at zenoh config path KEY, last (zenoh's examples' syntax), e.g. "
+                        "--cfg transport/link/tx/lease:3000 (repeatable)")
 
 
 def bus_config_from_args(args, base: BusConfig | None = None) -> BusConfig:
+    """The flags over ``base``; ConfigError for a malformed ``--cfg``."""
     base = base or BusConfig()
     return BusConfig(config_file=args.zenoh_config or base.config_file, mode=args.mode or base.mode,
                      connect=tuple(args.connect) or base.connect, listen=tuple(args.listen) or base.listen,
-                     shared_memory=base.shared_memory, connect_timeout_ms=base.connect_timeout_ms)
+                     shared_memory=base.shared_memory, connect_timeout_ms=base.connect_timeout_ms,
+                     cfg=base.cfg + parse_cfg(getattr(args, "cfg", ())))
 
 
 class ZenohBus(Decoding):
@@ -93,7 +128,7 @@ class ZenohBus(Decoding):
         self._zenoh = zenoh
         self.session = session
         self._encoding = zenoh.Encoding(messages.ENCODING)
-        self._pubs: dict[str, Any] = {}
+        self._pubs: dict[tuple[str, type], Any] = {}
         self._subs: list[Any] = []
         self._tokens: list[Any] = []
         self._closed = False
@@ -116,19 +151,22 @@ class ZenohBus(Decoding):
         self.close()
 
     def publish(self, key: str, msg: Any, *, express: bool = True) -> None:
+        """Encode, validate and put ``msg`` on ``key``; zenoh's encoding names its schema
+        (``application/msgpack;crowds/2``), so a receiver can tell what came without decoding it."""
         raw = messages.encode(msg)
-        pub = self._pubs.get(key)
+        pub = self._pubs.get((key, type(msg)))
         if pub is None:
             pub = self.session.declare_publisher(
-                key, encoding=self._encoding, express=express,
+                key, encoding=self._zenoh.Encoding(messages.encoding_of(type(msg))), express=express,
                 congestion_control=self._zenoh.CongestionControl.BLOCK)
-            self._pubs[key] = pub
+            self._pubs[(key, type(msg))] = pub
         pub.put(raw)
         self.published += 1
 
-    def put_raw(self, key: str, raw: bytes) -> None:
-        """Send arbitrary bytes (tests and fault injection only)."""
-        self.session.put(key, raw, encoding=self._encoding)
+    def put_raw(self, key: str, raw: bytes, encoding: str | None = None) -> None:
+        """Send bytes as they are: a recording played back (``encoding`` as recorded, e.g.
+        ``application/msgpack;fix/2``), or garbage in fault-injection tests (plain ``application/msgpack``)."""
+        self.session.put(key, raw, encoding=self._zenoh.Encoding(encoding) if encoding else self._encoding)
 
     def subscribe(self, keyexpr: str, cls: type, handler: Callable[[str, Any], None]) -> None:
         def on_sample(sample) -> None:

@@ -69,6 +69,8 @@ class UavNode:
         self.ugv_of_color = dict(self.u.colors)
         self.vision_ms: deque[float] = deque(maxlen=500)
         self._warn = RateLimitedLog(log)
+        # the shell's view of each processed frame (the annotated video): called on the vision thread, keep it short
+        self.on_processed: Callable[[np.ndarray, Detections], None] | None = None
 
     def start(self) -> None:
         self.bus.subscribe(keys.all_vehicles(self.cfg.team, "fix"), Fix, self.on_fix)
@@ -189,6 +191,8 @@ class UavNode:
                          noise.color_px, noise.ugv_blob_px, noise.crowd_blob_px, report)
         self.bus.publish(self.det_key, det)
         self.counts.add("processed")
+        if self.on_processed is not None:
+            self.on_processed(img, det)
         return det
 
     def vision_step(self, timeout_s: float) -> Detections | None:

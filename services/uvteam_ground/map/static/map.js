@@ -326,9 +326,18 @@
     S.events = es;
   }
 
+  // what the UAV sees (uvteam map --video URL): an MJPEG <img>, tried again when the stream drops
+  function showVideo(url) {
+    const box = document.getElementById("video"), img = document.getElementById("video-img");
+    box.hidden = false;
+    img.onerror = () => { setTimeout(() => { img.src = url + (url.includes("?") ? "&" : "?") + "t=" + Date.now(); }, 2000); };
+    img.src = url;
+  }
+
   async function start() {
     const cfg = await (await fetch("config.json")).json();
     S.cfg = cfg;
+    if (cfg.video) showVideo(cfg.video);
     document.getElementById("team").textContent = cfg.team;
     document.title = `uvteam map: ${cfg.team}`;
     if (cfg.origin) S.origin = cfg.origin;
