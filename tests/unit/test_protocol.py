@@ -168,7 +168,7 @@ def test_the_schema_refuses_what_the_codec_refuses(cls, data, ok):
 
 def test_rules_read_from_the_source():
     crowds = protocol.json_schema(Crowds)
-    assert crowds["properties"]["quality"]["enum"] == ["exact", "least_squares", "robust", "held", "failed"]
+    assert crowds["properties"]["quality"]["enum"] == ["exact", "least_squares", "robust", "suspect", "held", "pose", "failed"]
     assert crowds["x-zenoh-encoding"] == "application/msgpack;crowds/2"
     fr = protocol.json_schema(Frame)["properties"]
     assert fr["encoding"]["enum"] == ["jpeg", "bgr8"] and fr["width_px"]["maximum"] == 8192
