@@ -30,9 +30,10 @@ Modelling choices (each a scenario field or stated here):
   ``on_route`` ones stand on the UGVs' station ring (``station_radius_m`` +- 1.5 m) around the first
   crowd's centre at a random time of the run; ``near_crowd`` ones within ``near_crowd_m`` of a
   crowd's centre at a random time (sheds are left out of both when another kind is allowed: UGVs
-  do not drive, nor people walk, through buildings); ``scattered`` ones anywhere over the crowds' paths plus a
-  footprint. Colours cycle through the list from a random start in each group, so a group of at
-  least as many as there are colours has every colour.
+  do not drive, nor people walk, through buildings); ``scattered`` ones anywhere over the crowds'
+  paths plus half a nadir footprint. Colours (and kinds) cycle through their list from a random
+  start in each group, so a group of at least as many as there are colours has every colour.
+  The sensor model (:meth:`SimWorld.sense`) does not see them: they are for rendered frames.
 """
 
 from __future__ import annotations
