@@ -26,7 +26,7 @@ from conftest import OWN_SCENARIOS, load_own_scenario
 from uvteam.camera import CameraPose, R_cam_from_enu, project
 from uvteam.errors import ConfigError
 from uvteam.io.files import ImageryMissing, ground_imagery_files, load_scenario
-from uvteam.scenario import Ground, Lens, scenario_from_dict
+from uvteam.scenario import Ground, Lens, off_nadir_deg, scenario_from_dict
 from uvteam.vision.landmarks import DEFAULT_COLORS
 from uvteam_sim import experiment
 from uvteam_sim.render import LABEL_BGR, Renderer, make_imagery_texture, mip_pyramid, sample_prefiltered
@@ -100,7 +100,7 @@ def test_gnss_and_tilt_variants_differ_from_their_base_only_there():
     assert load_own_scenario("real-alt60-lm6").gnss.sigma_m == 0.0
     assert load_own_scenario("real-alt60-lm6-gnss1").gnss.sigma_m == 1.0
     t = load_own_scenario("real-alt120-lm6-tilt9").uav
-    assert 8.0 <= math.degrees(math.acos(math.cos(math.radians(t.tilt_roll_deg)) * math.cos(math.radians(t.tilt_pitch_deg)))) <= 10.0
+    assert 8.0 <= off_nadir_deg(t.tilt_roll_deg, t.tilt_pitch_deg) <= 10.0
 
 
 @pytest.fixture(scope="module")
