@@ -29,7 +29,7 @@ from uvteam import keys
 from uvteam.autopilot import MemoryAutopilot
 from uvteam.bus import InMemoryBus
 from uvteam.errors import ConfigError
-from uvteam.io.files import load_scenario
+from uvteam.io.files import ImageryMissing, load_scenario
 from uvteam.messages import Crowds, Truth
 from uvteam.nodes.localizer import LocalizerNode
 from uvteam.nodes.uav import UavNode
@@ -220,10 +220,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--jobs", type=int, default=max(1, (os.cpu_count() or 1)),
                     help="runs in parallel, one process each (default: one per core)")
     args = ap.parse_args(argv)
+    paths, scenarios = [], []
     try:
-        scenarios = [load_scenario(p) for p in args.scenarios]
+        for p in args.scenarios:
+            try:
+                scenarios.append(load_scenario(p))
+                paths.append(p)
+            except ImageryMissing as exc:   # real imagery is never in the repository: skip, say so
+                print(f"uvteam experiment: skipping {p}: {exc.key}: {exc.reason}", file=sys.stderr)
     except ConfigError as exc:
         print(f"uvteam experiment: {exc}", file=sys.stderr)
+        return 2
+    if not scenarios:
+        print("uvteam experiment: no scenario left to run", file=sys.stderr)
         return 2
     out = Path(args.out)
     why = _writable(out)
@@ -233,7 +242,7 @@ def main(argv: list[str] | None = None) -> int:
     per: dict[str, list[Scoreboard]] = {}
     t0 = time.perf_counter()
     work = []
-    for p, sc in zip(args.scenarios, scenarios):
+    for p, sc in zip(paths, scenarios):
         seeds = args.seed or (sc.run.seeds[: args.seeds] if args.seeds else sc.run.seeds)
         for seed in seeds:
             done = _load_run(_run_path(out, sc.name, seed, args.detector)) if args.resume else None

@@ -19,11 +19,26 @@ Modelling choices (each a scenario field or stated here):
 - terrain: height = relief/2 * sin(2 pi e / wavelength) * cos(2 pi n / wavelength) above the plane;
 - UGV roof labels and the visible centre of a person both sit 1.0 m above the ground;
 - GNSS: white noise ``sigma_m`` plus a random-walk bias, at ``fix_rate_hz``, ``latency_s`` late,
-  none during ``dropouts``.
+  none during ``dropouts``;
+- the camera's roll/pitch is the scenario's fixed gimbal tilt (``uav.tilt_roll_deg``/``tilt_pitch_deg``,
+  default 0) plus the fresh jitter;
+- distractors (``[distractors]``, none by default): static things in the UGVs' label colours, placed
+  once per run from their own generator (seed, 0xD15), so the world's own random stream is the same
+  with and without them. Each carries a square patch of ``ugvs.label_side_m`` in a label colour
+  (paint gain 0.85-1.0): a painted *marking* on the ground, a parked *vehicle* (4.4 x 1.8 m, 1.5 m
+  tall, the patch on its roof) or a *roof* (a 6 x 6 m flat-roofed shed, 3 m tall, the patch on it).
+  ``on_route`` ones stand on the UGVs' station ring (``station_radius_m`` +- 1.5 m) around the first
+  crowd's centre at a random time of the run; ``near_crowd`` ones within ``near_crowd_m`` of a
+  crowd's centre at a random time (sheds are left out of both when another kind is allowed: UGVs
+  do not drive, nor people walk, through buildings); ``scattered`` ones anywhere over the crowds'
+  paths plus half a nadir footprint. Colours (and kinds) cycle through their list from a random
+  start in each group, so a group of at least as many as there are colours has every colour.
+  The sensor model (:meth:`SimWorld.sense`) does not see them: they are for rendered frames.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,7 +49,7 @@ from uvteam.detector_noise import SENSOR_MODEL_NOISE
 from uvteam.geo import LocalFrame
 from uvteam.scenario import Scenario
 
-__all__ = ["SimWorld", "SensorFrame"]
+__all__ = ["SimWorld", "SensorFrame", "Distractor", "place_distractors", "DISTRACTOR_SHAPES"]
 
 ROOF_HEIGHT_M = 1.0
 PERSON_CENTRE_HEIGHT_M = 1.0
@@ -47,6 +62,76 @@ STATION_BAND_M = 3.0
 STATION_LEAD_S = 1.0
 MOVING_M_S = 0.2  # frame differencing sees a UGV only when it moves
 GNSS_VEL_SIGMA_M_S = 0.05
+ROUTE_BAND_M = 1.5           # on-route distractors: this close to the station ring
+PAINT_GAIN = (0.85, 1.0)     # distractor paint: brightness of a label colour (hue and saturation kept)
+
+
+@dataclass(frozen=True, slots=True)
+class DistractorShape:
+    length_m: float          # footprint along the heading (0: only the patch, painted on the ground)
+    width_m: float
+    height_m: float          # where the patch is: top of the thing above the ground
+
+
+DISTRACTOR_SHAPES = {
+    "marking": DistractorShape(0.0, 0.0, 0.0),
+    "vehicle": DistractorShape(4.4, 1.8, 1.5),
+    "roof": DistractorShape(6.0, 6.0, 3.0),
+}
+
+
+@dataclass(frozen=True, slots=True)
+class Distractor:
+    """A static label-coloured thing: its ``kind`` (:data:`DISTRACTOR_SHAPES`), the ``color`` of its
+    patch (a label colour), where it is and why (``group``: on_route | near_crowd | scattered)."""
+
+    kind: str
+    color: str
+    east_m: float
+    north_m: float
+    heading_deg: float
+    paint_gain: float        # the patch is LABEL_BGR[color] times this
+    body_grey: float         # vehicle/roof body brightness, 0-255
+    group: str
+
+
+def place_distractors(sc: Scenario, seed: int, crowd_c: np.ndarray, crowd_v: np.ndarray,
+                      footprint_m: tuple[float, float]) -> tuple[Distractor, ...]:
+    """The scenario's distractors for this seed (see the module docstring); () when it has none."""
+    d = sc.distractors
+    if d.on_route + d.near_crowd + d.scattered == 0:
+        return ()
+    rng = np.random.default_rng([seed, 0xD15])
+    colors = d.colors or tuple(sc.ugvs.colors)
+    dur = sc.run.duration_s
+    out: list[Distractor] = []
+
+    def centre(k: int, t: float) -> np.ndarray:
+        return crowd_c[k] + crowd_v[k] * t
+
+    ends = np.vstack([crowd_c, crowd_c + crowd_v * dur])
+    lo = ends.min(0) - np.array(footprint_m) / 2
+    hi = ends.max(0) + np.array(footprint_m) / 2
+    walkable = tuple(k for k in d.kinds if k != "roof") or d.kinds   # no shed where UGVs drive or people walk
+    for group, count, kinds in (("on_route", d.on_route, walkable), ("near_crowd", d.near_crowd, walkable),
+                                ("scattered", d.scattered, d.kinds)):
+        c0, k0 = int(rng.integers(len(colors))), int(rng.integers(len(kinds)))
+        for j in range(count):
+            if group == "on_route":
+                r = sc.ugvs.station_radius_m + rng.uniform(-ROUTE_BAND_M, ROUTE_BAND_M)
+                a = rng.uniform(0, 2 * np.pi)
+                p = centre(0, rng.uniform(0, dur)) + r * np.array([math.sin(a), math.cos(a)])
+            elif group == "near_crowd":
+                k = int(rng.integers(len(crowd_c)))
+                r = d.near_crowd_m * math.sqrt(rng.uniform())
+                a = rng.uniform(0, 2 * np.pi)
+                p = centre(k, rng.uniform(0, dur)) + r * np.array([math.sin(a), math.cos(a)])
+            else:
+                p = rng.uniform(lo, hi)
+            out.append(Distractor(kinds[(k0 + j) % len(kinds)], colors[(c0 + j) % len(colors)], float(p[0]), float(p[1]),
+                                  float(rng.uniform(0, 360)), float(rng.uniform(*PAINT_GAIN)),
+                                  float(rng.uniform(60, 200)), group))
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -93,6 +178,9 @@ class SimWorld:
         # UAV
         self.uav_p = self.crowd_centroids()[0].copy()
         self.wobble = np.zeros(2)
+        # static distractors, from their own generator
+        self.distractors = place_distractors(sc, seed, self.crowd_c, self.crowd_v,
+                                             self.camera.footprint_m(sc.uav.altitude_agl_m))
 
     # --- geometry -----------------------------------------------------------------------------
     def terrain_up_m(self, en) -> np.ndarray:
@@ -193,7 +281,9 @@ class SimWorld:
         roll, pitch = (self.rng.normal(0, j, 2) if j > 0 else (0.0, 0.0))
         p = self.uav_p + self.wobble
         ground = float(self.terrain_up_m(self.uav_p)[0])
-        return CameraPose(float(p[0]), float(p[1]), ground + self.sc.uav.altitude_agl_m, 0.0, float(roll), float(pitch))
+        u = self.sc.uav   # the fixed tilt is 0 in every file that does not set it: x + 0.0 == x, frames unchanged
+        return CameraPose(float(p[0]), float(p[1]), ground + u.altitude_agl_m, 0.0,
+                          float(roll) + u.tilt_roll_deg, float(pitch) + u.tilt_pitch_deg)
 
     def _in_image(self, px: np.ndarray, margin: float = 0.0) -> np.ndarray:
         w, h = self.camera.width_px, self.camera.height_px

@@ -51,7 +51,8 @@ def team_configs(sc: Scenario, layout: TeamLayout, *, detector: str = "pixels", 
     out[layout.uav] = VehicleConfig(
         layout.team, layout.uav, "uav", bus, autopilot(layout.uav),
         uav=UavConfig(detector=detector, camera="zenoh", hfov_deg=sc.camera.hfov_deg, label_side_m=sc.ugvs.label_side_m,
-                      colors=dict(zip(sc.ugvs.colors, layout.ugvs))))
+                      colors=dict(zip(sc.ugvs.colors, layout.ugvs)),
+                      mount_roll_deg=sc.uav.tilt_roll_deg, mount_pitch_deg=sc.uav.tilt_pitch_deg))   # the gimbal's set tilt
     for u in layout.ugvs:
         out[u] = VehicleConfig(
             layout.team, u, "ugv", bus, autopilot(u),

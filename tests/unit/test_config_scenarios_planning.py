@@ -155,7 +155,8 @@ def test_ring_follows_the_crowds_heading_not_the_teams_lag(lag_deg):
 # defaults that the demo and the experiment run with (uvteam.team)
 WIRING = {"bus": {"zenoh_config", "mode", "connect", "listen"},
           "autopilot": {"url", "system_id", "component_id", "signing_key_file"},
-          "uav": {"detector", "camera", "hfov_deg", "label_side_m", "colors"},
+          "uav": {"detector", "camera", "hfov_deg", "label_side_m", "colors", "gimbal", "mount_roll_deg", "mount_pitch_deg",
+                  "mount_yaw_deg", "annotate_http", "annotate_video"},
           "ugv": {"uav", "localizer", "team_ugvs", "station_radius_m", "max_speed_m_s", "view_half_width_m",
                   "view_half_height_m", "camera", "camera_hfov_deg", "camera_yaw_deg", "camera_ref_distance_m",
                   "camera_ref_box_height_px", "person_height_m"},

@@ -1,7 +1,7 @@
 """The simulator's renderer and the UAV pixel pipeline on its frames.
 
 The renderer is checked against the camera model (every pixel's ground point projects back onto that
-pixel, with terrain relief and gimbal jitter), the color detector against the projected roof labels,
+pixel, with terrain relief, gimbal jitter, a fixed tilt, and real-imagery ground), the color detector against the projected roof labels,
 and the whole pipeline (render -> motion + color -> localizer) on a short stretch of a paper scenario.
 """
 
@@ -21,6 +21,8 @@ from uvteam_sim.render import LABEL_BGR, Renderer
 from uvteam.io.files import load_scenario
 from uvteam_sim.world import SimWorld
 
+from conftest import load_own_scenario
+
 SCENARIOS = Path(__file__).resolve().parents[3] / "shared" / "scenarios"
 pytestmark = pytest.mark.skipif(not SCENARIOS.is_dir(), reason="../shared/scenarios not present")
 
@@ -29,13 +31,23 @@ def _world(name: str, seed: int = 3) -> SimWorld:
     return SimWorld(load_scenario(SCENARIOS / f"{name}.toml"), seed)
 
 
-def test_every_pixel_samples_the_ground_point_that_projects_onto_it():
-    # field scenario: 3 m terrain relief and 0.5 deg gimbal jitter, so neither flat nor nadir
-    w = _world("field-alt100-lm6")
+@pytest.mark.parametrize("name, own, tilt", [
+    ("field-alt100-lm6", False, None),         # 3 m terrain relief and 0.5 deg gimbal jitter: neither flat nor nadir
+    ("real-alt120-lm6-tilt9", True, None),     # real-imagery ground, texels half a pixel, 9 deg fixed tilt
+    ("real-alt60-lm6", True, (-10.0, 0.0)),    # real-imagery ground, the largest tilt a file may ask for
+    ("field-alt100-lm6", False, (4.0, -6.0)),  # terrain relief and a fixed tilt on top of the jitter
+])
+def test_every_pixel_samples_the_ground_point_that_projects_onto_it(name, own, tilt):
+    sc = load_own_scenario(name) if own else load_scenario(SCENARIOS / f"{name}.toml")
+    sc = replace(sc, run=replace(sc.run, duration_s=5.0))            # less ground to make
+    if tilt is not None:
+        sc = replace(sc, uav=replace(sc.uav, tilt_roll_deg=tilt[0], tilt_pitch_deg=tilt[1]))
+    w = SimWorld(sc, 3)
     r = Renderer(w, np.random.default_rng(1))
     pose = w.camera_pose()
     assert abs(pose.roll_deg) + abs(pose.pitch_deg) > 0
     mx, my = r.ground_maps(pose)
+    assert (mx >= 0).all() and (my >= 0).all() and (mx < r.texture.shape[1] - 1).all() and (my < r.texture.shape[0] - 1).all()
     rng = np.random.default_rng(0)
     px = np.vstack([np.column_stack([rng.integers(0, 1280, 300), rng.integers(0, 720, 300)]),
                     [[0, 0], [1279, 0], [0, 719], [1279, 719]]])           # the corners too
@@ -43,6 +55,8 @@ def test_every_pixel_samples_the_ground_point_that_projects_onto_it():
     n = r.north_top_m - (my[px[:, 1], px[:, 0]] + 0.5) * r.texel_m
     back = project(w.camera, pose, np.column_stack([e, n, w.terrain_up_m(np.column_stack([e, n]))]))
     assert np.abs(back - px).max() < 0.05   # measured 0.003 px
+    if r.mip is not None:                   # the prefiltered ground follows the same maps (test_worlds: to 0.1 px)
+        assert r.render(pose).shape == (w.camera.height_px, w.camera.width_px, 3)
 
 
 @pytest.mark.parametrize("name", ["paper-fig7-alt200", "paper-fig7-alt50", "field-alt100-lm6"])
