@@ -143,8 +143,8 @@ class Team:
 
     def restart(self, name: str) -> None:
         """Start a process again as it was started (after a kill: a vehicle's computer rebooting)."""
+        self._spawn(name, self.args[name])      # the new process first: the killed one is never seen as crashed
         self.expected_exit.discard(name)
-        self._spawn(name, self.args[name])
 
     def start(self) -> None:
         self._spawn("router", ["router", "--zenoh-config", str(self.secrets / "router.json5")] if self.secure

@@ -60,11 +60,11 @@ class SimClock:
 class SimTeam:
     """The team's service nodes over one in-memory bus, driven tick by tick by a :class:`Simulation`.
 
-    Per tick, in this order (each node's own phases, :mod:`uvteam.nodes`): fixes delivered to the UGVs'
-    autopilots; lost UGVs' services stopped (liveliness dropped); every UGV publishes its fix, then
-    plans (once per tracking interval) and exchanges its mission; on a frame: the UAV's autopilot state
-    and fix, the frame (rendered pixels through the UAV node's vision, or the sensor model's detections
-    on the bus), the truth, and the localizer's step."""
+    Per tick, in this order (each node's own phases, :mod:`uvteam.nodes`): lost UGVs' services stopped
+    (liveliness dropped); fixes delivered to the UGVs' autopilots (and on a frame, the UAV's state);
+    every vehicle publishes its fix; every UGV plans (once per tracking interval) and exchanges its
+    mission; on a frame: the frame (rendered pixels through the UAV node's vision, or the sensor
+    model's detections on the bus), the truth, and the localizer's step."""
 
     def __init__(self, sc: Scenario, seed: int, detector: str = "sensor", team: str = "exp") -> None:
         self.sc, self.seed, self.detector = sc, seed, detector
@@ -118,16 +118,17 @@ class SimTeam:
                 self.lose(i)
             for f in tick.fixes:
                 self.ugv_aps[f.ugv_index].set_state(f.state)
-            for node in self.ugvs.values():
+            pose = None
+            if tick.frame_seq is not None:   # the UAV's autopilot reports where the camera is at the frame
+                pose = sim.world.camera_pose()
+                self.uav_ap.set_state(sim.uav_state(pose, tick.t_s))
+            for node in (*self.ugvs.values(), self.uav):
                 node.publish_fix()
             for node in self.ugvs.values():
                 node.tick(self.clock.t_s)
                 node.exchange_mission()
-            if tick.frame_seq is None:
+            if pose is None:
                 continue
-            pose = sim.world.camera_pose()
-            self.uav_ap.set_state(sim.uav_state(pose, tick.t_s))
-            self.uav.publish_fix()
             if self.renderer is not None:
                 self.uav.process_frame(self.clock.t_s, tick.frame_seq, self.renderer.render(pose))
             else:

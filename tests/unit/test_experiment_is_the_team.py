@@ -45,15 +45,15 @@ def by_hand(sc, seed, duration_s):
         assert not tick.lost
         for f in tick.fixes:
             aps[f.ugv_index].set_state(f.state)
-        for n in ugvs:
+        if tick.frame_seq is not None:
+            pose = sim.world.camera_pose()
+            uav_ap.set_state(sim.uav_state(pose, tick.t_s))
+        for n in (*ugvs, uav):
             n.publish_fix()
         for n in ugvs:
             n.tick(clock.t_s)
             n.exchange_mission()
         if tick.frame_seq is not None:
-            pose = sim.world.camera_pose()
-            uav_ap.set_state(sim.uav_state(pose, tick.t_s))
-            uav.publish_fix()
             out.publish(keys.key(lay.team, lay.uav, "sensor"), sim.sensor_detections(pose, tick.t_s, tick.frame_seq, lay.uav))
             loc.step(0.0)
     return got
