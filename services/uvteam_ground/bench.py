@@ -1,10 +1,17 @@
 """`uvteam bench <what>`: benchmarks that print figures (not timed tests).
 
   localize   microseconds per localizer step, 6 landmarks and 20 blobs, one core
-  vision     UAV motion detector fps at 1280x720 and 1920x1080 on real drone frames, HOG fps at 640x480 (one core)
+  codec      a 20-blob Detections message: decode and encode beside plain msgpack, interleaved, one core
+  vision     UAV motion detector beside the plain paper pipeline and the warp floor, interleaved, one core,
+             on karma.mp4 and AU-AIR (1280x720, 1920x1080) and rendered frames; HOG fps at 640x480
   render     (from the simulator) renderer fps and the whole UAV pixel pipeline's fps on rendered frames
-  latency    frame capture -> crowd message at a UGV service over loopback zenoh
-  all        everything above
+  latency    frame capture -> crowd message at a UGV service over loopback zenoh, and each process's memory
+  frames     frames from the simulator to the UAV service over zenoh: shared memory on and off
+  scaling    N teams of 1 UAV + 6 UGVs (sensor model) through one router, N = 1, 2, ... up to the knee
+  all        everything above but scaling
+
+Ratios (project / yardstick, measured interleaved in one process) are the figures to compare across
+machines and days; absolute figures are printed beside them with the date.
 """
 
 from __future__ import annotations
@@ -88,13 +95,18 @@ def main(argv: list[str] | None = None) -> int:
     plugins = _plugins()
     ap = argparse.ArgumentParser(prog="uvteam bench", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["localize", "vision", "latency", *sorted(plugins), "all"])
+    ap.add_argument("what", choices=["localize", "codec", "vision", "latency", "frames", "scaling", *sorted(plugins),
+                                     "all"])
     ap.add_argument("--frames", choices=["pixels", "sensor"], default="pixels",
                     help="latency: rendered frames through the UAV's pixel pipeline (default), or the sensor model")
     args = ap.parse_args(argv)
     old = _one_core()
     if args.what in ("localize", "all"):
         bench_localize()
+    if args.what in ("codec", "all"):
+        from uvteam_ground import bench_codec  # noqa: PLC0415
+
+        bench_codec.run()
     if args.what in ("vision", "all"):
         from uvteam_ground import bench_vision  # noqa: PLC0415
 
