@@ -163,18 +163,19 @@ def _corners(prev: np.ndarray, cfg: MotionConfig, mask: np.ndarray | None, n: in
     return p0
 
 
-def _top_up(prev: np.ndarray, cfg: MotionConfig, mask: np.ndarray | None, kept: np.ndarray | None) -> np.ndarray | None:
-    """The corners to follow from ``prev``: those ``kept`` from the last fit (already on ``prev``, off
-    ``mask``'s zeros), topped up with new ones away from them once fewer than ``TOP_UP_BELOW`` of
-    ``max_corners`` are left; all new ones when nothing is kept."""
+def _top_up(prev: np.ndarray, cfg: MotionConfig, mask: np.ndarray | None,
+            kept: np.ndarray | None) -> tuple[np.ndarray | None, int]:
+    """The corners to follow from ``prev`` and how many of them come first from the last fit: those
+    ``kept`` (already on ``prev``, off ``mask``'s zeros), topped up with new ones away from them once
+    fewer than ``TOP_UP_BELOW`` of ``max_corners`` are left; all new ones when nothing is kept."""
     if kept is not None and mask is not None and len(kept):
         h, w = mask.shape
         xy = np.clip(np.round(kept.reshape(-1, 2)).astype(np.int32), 0, [w - 1, h - 1])
         kept = kept[mask[xy[:, 1], xy[:, 0]] > 0]
     if kept is None or len(kept) == 0:
-        return _corners(prev, cfg, mask, cfg.max_corners)
+        return _corners(prev, cfg, mask, cfg.max_corners), 0
     if len(kept) >= TOP_UP_BELOW * cfg.max_corners:
-        return kept
+        return kept, len(kept)
     # new corners at least the minimum distance from the kept ones, as goodFeaturesToTrack spaces its own
     room = np.full(prev.shape, 255, np.uint8) if mask is None else mask.copy()
     r = max(1, int(round(cfg.corner_min_distance_px)))
@@ -182,7 +183,7 @@ def _top_up(prev: np.ndarray, cfg: MotionConfig, mask: np.ndarray | None, kept: 
         cv2.circle(room, (int(x), int(y)), r, 0, -1)
     new = cv2.goodFeaturesToTrack(prev, cfg.max_corners - len(kept), cfg.corner_quality, cfg.corner_min_distance_px,
                                   mask=room, blockSize=CORNER_BLOCK_PX)
-    return kept if new is None else np.concatenate([kept, new.astype(np.float32)])
+    return (kept if new is None else np.concatenate([kept, new.astype(np.float32)])), len(kept)
 
 
 def compensate(prev: np.ndarray, curr: np.ndarray, cfg: MotionConfig, mask: np.ndarray | None = None) -> Registration:
@@ -191,18 +192,23 @@ def compensate(prev: np.ndarray, curr: np.ndarray, cfg: MotionConfig, mask: np.n
     return _compensate(prev, curr, cfg, _corners(prev, cfg, mask, cfg.max_corners))[0]
 
 
-def _compensate(prev: np.ndarray, curr: np.ndarray, cfg: MotionConfig,
-                p0: np.ndarray | None) -> tuple[Registration, np.ndarray | None]:
-    """Camera motion prev -> curr from the corners ``p0`` on prev; and the inliers' positions in curr,
-    the corners the next frame follows on (None when the fit failed)."""
+def _compensate(prev: np.ndarray, curr: np.ndarray, cfg: MotionConfig, p0: np.ndarray | None,
+                n_followed: int = 0) -> tuple[Registration, np.ndarray | None]:
+    """Camera motion prev -> curr from the corners ``p0`` on prev (the first ``n_followed`` of them
+    followed from the frame before); and the inliers' positions in curr, the corners the next frame
+    follows (None when the fit failed)."""
     if p0 is None or len(p0) < MIN_FIT_POINTS:
         return Registration.failed(), None
     lk = dict(winSize=(cfg.lk_window_px, cfg.lk_window_px), maxLevel=cfg.lk_levels,
               criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, LK_ITERATIONS, LK_EPSILON))
     p1, st, _ = cv2.calcOpticalFlowPyrLK(prev, curr, p0, None, **lk)
-    p0r, st2, _ = cv2.calcOpticalFlowPyrLK(curr, prev, p1, None, **lk)
-    fb = np.sqrt(((p0 - p0r) ** 2).sum(-1)).ravel()
-    ok = (st.ravel() == 1) & (st2.ravel() == 1) & (fb < FORWARD_BACKWARD_PX)
+    ok = st.ravel() == 1
+    # the forward-backward check, for new corners only: a followed one passed it, and was an inlier since
+    new = np.flatnonzero(ok[n_followed:]) + n_followed
+    if len(new):
+        back, st2, _ = cv2.calcOpticalFlowPyrLK(curr, prev, p1[new], None, **lk)
+        fb = np.sqrt(((p0[new] - back) ** 2).sum(-1)).ravel()
+        ok[new] = (st2.ravel() == 1) & (fb < FORWARD_BACKWARD_PX)
     a, b = p0[ok].reshape(-1, 2), p1[ok].reshape(-1, 2)
     if len(a) < MIN_FIT_POINTS:
         return Registration.failed(len(a)), None
@@ -350,7 +356,7 @@ class MotionDetector:
             free = cv2.bitwise_not(busy)
             if free.shape != prev_c.shape:
                 free = cv2.resize(free, prev_c.shape[::-1], interpolation=cv2.INTER_NEAREST)
-        reg, self._kept = _compensate(prev_c, curr_c, self.cfg, _top_up(prev_c, self.cfg, free, self._kept))
+        reg, self._kept = _compensate(prev_c, curr_c, self.cfg, *_top_up(prev_c, self.cfg, free, self._kept))
         c = min(1.0, self.cfg.compensate_max_scale / self.cfg.process_scale)
         if reg.H_curr_from_prev is None or c >= 1.0:
             return reg
@@ -371,14 +377,14 @@ class MotionDetector:
         valid = cv2.erode(valid, np.ones((2 * cfg.border_px + 1, 2 * cfg.border_px + 1), np.uint8))
         diff = cv2.absdiff(curr, warped)
         _, moving = cv2.threshold(diff, cfg.diff_threshold, 255, cv2.THRESH_BINARY)
-        moving &= valid
+        cv2.bitwise_and(moving, valid, dst=moving)
         if cfg.speckle == "open":
             moving = cv2.morphologyEx(moving, cv2.MORPH_OPEN, self._k_open)
         else:
             # "neighbours": a moving pixel needs two moving neighbours; unlike an opening this keeps the
             # one-pixel crescents of a slow walker, which add up in the history and are opened there
             nb = cv2.boxFilter(moving, cv2.CV_16U, (3, 3), normalize=False)
-            moving[nb < 3 * 255] = 0
+            cv2.bitwise_and(moving, cv2.compare(nb, 3 * 255, cv2.CMP_GE), dst=moving)
         b = cfg.border_px  # the frame's own edge too: lens edge, and where a renderer or ISP extrapolates
         moving[:b] = 0
         moving[-b:] = 0
@@ -403,13 +409,13 @@ class MotionDetector:
             x0, y0, x1, y1 = roi
             age[y0:y1, x0:x1] = warp(self._age, cv2.INTER_NEAREST, 255, roi)
         age = cv2.add(age, int(min(255, max(0, round(dt_s / AGE_UNIT_S)))))
-        age[moving > 0] = 0
+        age = cv2.bitwise_and(age, cv2.bitwise_not(moving))   # 0 where it moves now
         _, recent = cv2.threshold(age, int(round(cfg.history_s / AGE_UNIT_S)), 255, cv2.THRESH_BINARY_INV)
         self._age = cv2.bitwise_or(age, cv2.bitwise_not(recent))
         self._age_box = cv2.boundingRect(recent)
         if cfg.speckle == "neighbours":
             recent = cv2.morphologyEx(recent, cv2.MORPH_OPEN, self._k_open)
-            moving &= recent
+            cv2.bitwise_and(moving, recent, dst=moving)
         return recent, moving
 
     def _components(self, joined: np.ndarray, carve: np.ndarray) -> list[tuple[int, int, np.ndarray]]:
@@ -475,20 +481,19 @@ class MotionDetector:
                     centre_of[len(parts) - 1] = (carve[ci, 0] - x, carve[ci, 1] - y)
         out = []
         for pi, (pm, pnow, min_area, ci) in enumerate(parts):
-            area = float(pm.sum()) * inv * inv
+            area = float(np.count_nonzero(pm)) * inv * inv
             if not min_area <= area <= cfg.max_area_px:
                 continue
             # The centre comes from this frame's moving pixels: the history's centroid would trail
             # the crowd by half the history (0.6 m at 3 m/s, 0.4 s); this lags by half a frame at most.
             if pi in centre_of:
                 cx, cy = centre_of[pi]
-            else:
-                ys, xs = np.nonzero(pnow if pnow.any() else pm)
-                cx, cy = xs.mean(), ys.mean()
-            bys, bxs = np.nonzero(pm)
+            else:   # the mean of the pixels' coordinates, as image moments (no index arrays)
+                mo = cv2.moments(np.ascontiguousarray(pnow if pnow.any() else pm).view(np.uint8), binaryImage=True)
+                cx, cy = mo["m10"] / mo["m00"], mo["m01"] / mo["m00"]
+            bx, by, bw_, bh_ = cv2.boundingRect(np.ascontiguousarray(pm).view(np.uint8))
             out.append(([(cx + x + 0.5) * inv - 0.5, (cy + y + 0.5) * inv - 0.5],
-                        [(bxs.min() + x) * inv, (bys.min() + y) * inv, (bxs.max() + x + 1) * inv, (bys.max() + y + 1) * inv],
-                        area, ci))
+                        [(bx + x) * inv, (by + y) * inv, (bx + bw_ + x) * inv, (by + bh_ + y) * inv], area, ci))
         return out
 
     def _holds_crowd(self, rest: np.ndarray, inv: float) -> bool:
