@@ -99,6 +99,11 @@ def main(argv: list[str] | None = None) -> int:
                                      "all"])
     ap.add_argument("--frames", choices=["pixels", "sensor"], default="pixels",
                     help="latency: rendered frames through the UAV's pixel pipeline (default), or the sensor model")
+    ap.add_argument("--ugvs", type=int, default=None, help="latency: UGVs in the team (default: the demo's 6)")
+    ap.add_argument("--rate", type=float, default=None, metavar="HZ",
+                    help="latency: UAV frames a second (default: the demo's 10)")
+    ap.add_argument("--duration", type=float, default=60.0, metavar="S", help="latency: seconds (default 60)")
+    ap.add_argument("--max-teams", type=int, default=4, help="scaling: the most teams to try (default 4)")
     args = ap.parse_args(argv)
     old = _one_core()
     if args.what in ("localize", "all"):
@@ -114,9 +119,17 @@ def main(argv: list[str] | None = None) -> int:
     for name, ep in sorted(plugins.items()):
         if args.what in (name, "all"):
             ep.load()()
+    _all_cores(old)  # the team is ten processes or more: they must not inherit the one-core pin
+    if args.what in ("frames", "all"):
+        from uvteam_ground import bench_frames  # noqa: PLC0415
+
+        bench_frames.run()
     if args.what in ("latency", "all"):
-        _all_cores(old)  # the team is ten processes: they must not inherit the one-core pin
         from uvteam_ground import bench_latency  # noqa: PLC0415
 
-        bench_latency.run(frames=args.frames)
+        bench_latency.run(duration_s=args.duration, frames=args.frames, ugvs=args.ugvs, rate_hz=args.rate)
+    if args.what == "scaling":
+        from uvteam_ground import bench_scaling  # noqa: PLC0415
+
+        bench_scaling.run(max_teams=args.max_teams, duration_s=min(args.duration, 30.0))
     return 0

@@ -51,6 +51,7 @@ LK_ITERATIONS, LK_EPSILON = 20, 0.03
 AFFINE_TOLERANCE_PX = 0.05  # a homography moving no frame pixel more than this from its affine part is warped affinely
 POOLED_LABEL_MIN_MERGE_PX = 8   # blobs joined over at least this many px are labelled on a 2x2 max-pooled mask
 POOLED_LABEL_MIN_SIDE_PX = 64
+NEAR_LEVELS = 1             # pyramid levels searched around where the last camera motion takes a corner
 TOP_UP_BELOW = 0.6          # corners followed from frame to frame are topped up below this fraction of max_corners
 
 __all__ = ["MotionConfig", "MotionResult", "Registration", "MotionDetector", "bounds_for_altitude", "compensate"]
@@ -193,15 +194,25 @@ def compensate(prev: np.ndarray, curr: np.ndarray, cfg: MotionConfig, mask: np.n
 
 
 def _compensate(prev: np.ndarray, curr: np.ndarray, cfg: MotionConfig, p0: np.ndarray | None,
-                n_followed: int = 0) -> tuple[Registration, np.ndarray | None]:
+                n_followed: int = 0, guess: np.ndarray | None = None) -> tuple[Registration, np.ndarray | None]:
     """Camera motion prev -> curr from the corners ``p0`` on prev (the first ``n_followed`` of them
     followed from the frame before); and the inliers' positions in curr, the corners the next frame
-    follows (None when the fit failed)."""
+    follows (None when the fit failed). ``guess``: the last camera motion; the camera moves smoothly, so
+    the corners are first looked for where it would take them, over ``NEAR_LEVELS`` pyramid levels
+    only, and over all of them when that loses more than half."""
     if p0 is None or len(p0) < MIN_FIT_POINTS:
         return Registration.failed(), None
     lk = dict(winSize=(cfg.lk_window_px, cfg.lk_window_px), maxLevel=cfg.lk_levels,
               criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, LK_ITERATIONS, LK_EPSILON))
-    p1, st, _ = cv2.calcOpticalFlowPyrLK(prev, curr, p0, None, **lk)
+    st = None
+    if guess is not None and cfg.lk_levels > NEAR_LEVELS:
+        pred = cv2.perspectiveTransform(p0, guess).astype(np.float32)
+        p1, st, _ = cv2.calcOpticalFlowPyrLK(prev, curr, p0, pred, **{**lk, "maxLevel": NEAR_LEVELS},
+                                             flags=cv2.OPTFLOW_USE_INITIAL_FLOW)
+        if st.sum() * 2 < len(p0):
+            st = None
+    if st is None:
+        p1, st, _ = cv2.calcOpticalFlowPyrLK(prev, curr, p0, None, **lk)
     ok = st.ravel() == 1
     # the forward-backward check, for new corners only: a followed one passed it, and was an inlier since
     new = np.flatnonzero(ok[n_followed:]) + n_followed
@@ -276,6 +287,7 @@ class MotionDetector:
         self._age: np.ndarray | None = None
         self._busy: np.ndarray | None = None   # the previous frame's blobs, widened: no corners there
         self._kept: np.ndarray | None = None   # the last fit's inlier corners, on the previous frame
+        self._last_H: np.ndarray | None = None  # the last camera motion, in the fit's pixels
         self._age_box: tuple[int, int, int, int] | None = None   # where the motion history holds anything
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
         # a square closing: it joins members up to merge_px apart, and costs the same at any size
@@ -287,6 +299,7 @@ class MotionDetector:
 
     def reset(self) -> None:
         self._prev = self._prev_c = self._stamp_s = self._age = self._busy = self._kept = self._age_box = None
+        self._last_H = None
 
     def update(self, frame: np.ndarray, stamp_s: float, carve_xy_px: np.ndarray | None = None,
                carve_radius_px: float = 0.0) -> MotionResult:
@@ -310,7 +323,7 @@ class MotionDetector:
         busy, self._busy = self._busy, None
         if prev is None or prev.shape != curr.shape:
             self._age = np.full(curr.shape, 255, np.uint8)
-            self._kept = self._age_box = None
+            self._kept = self._age_box = self._last_H = None
             return MotionResult.empty()
         reg = self._register(prev_c, curr_c, busy)
         if reg.H_curr_from_prev is None:
@@ -356,7 +369,9 @@ class MotionDetector:
             free = cv2.bitwise_not(busy)
             if free.shape != prev_c.shape:
                 free = cv2.resize(free, prev_c.shape[::-1], interpolation=cv2.INTER_NEAREST)
-        reg, self._kept = _compensate(prev_c, curr_c, self.cfg, *_top_up(prev_c, self.cfg, free, self._kept))
+        reg, self._kept = _compensate(prev_c, curr_c, self.cfg, *_top_up(prev_c, self.cfg, free, self._kept),
+                                      guess=self._last_H)
+        self._last_H = reg.H_curr_from_prev
         c = min(1.0, self.cfg.compensate_max_scale / self.cfg.process_scale)
         if reg.H_curr_from_prev is None or c >= 1.0:
             return reg
