@@ -735,21 +735,22 @@ class _FastGen:
 
 
 def _build(cls: type, convs: list) -> Callable:
-    """struct -> dataclass (fields converted, the type's own checks and ``_rules`` run)."""
-    rules = getattr(cls, "_rules", None)
-    astuple = msgspec.structs.astuple
-
-    def build(st: Any) -> Any:
-        vals = astuple(st)
-        if convs:
-            vals = list(vals)
-            for i, conv in convs:
-                vals[i] = conv(vals[i])
-        msg = cls(*vals)
-        if rules is not None:
-            rules(msg)
-        return msg
-    return build
+    """struct -> dataclass (fields converted, the type's own checks and ``_rules`` run), as one generated
+    function per type: ``cls(c3(st.a), st.b, ...)``, as dataclasses generate their ``__init__``."""
+    names = [f.name for f in fields(cls)]
+    conv_of = dict(convs)
+    env: dict[str, Any] = {"cls": cls, "rules": getattr(cls, "_rules", None)}
+    args = []
+    for i, n in enumerate(names):
+        if i in conv_of:
+            env[f"c{i}"] = conv_of[i]
+            args.append(f"c{i}(st.{n})")
+        else:
+            args.append(f"st.{n}")
+    src = (f"def build(st):\n    msg = cls({', '.join(args)})\n"
+           + ("    rules(msg)\n" if env["rules"] is not None else "") + "    return msg\n")
+    exec(src, env)   # noqa: S102 - the source is built from the dataclass's own field names
+    return env["build"]
 
 
 def _build_blobs(cls: type, convs: list) -> Callable:
