@@ -52,6 +52,7 @@ AFFINE_TOLERANCE_PX = 0.05  # a homography moving no frame pixel more than this 
 POOLED_LABEL_MIN_MERGE_PX = 8   # blobs joined over at least this many px are labelled on a 2x2 max-pooled mask
 POOLED_LABEL_MIN_SIDE_PX = 64
 NEAR_LEVELS = 1             # pyramid levels searched around where the last camera motion takes a corner
+STEADY_PX = 4.0             # ... when the last two motions agree this well (a level-1 search reaches ~2 windows)
 TOP_UP_BELOW = 0.6          # corners followed from frame to frame are topped up below this fraction of max_corners
 
 __all__ = ["MotionConfig", "MotionResult", "Registration", "MotionDetector", "bounds_for_altitude", "compensate"]
@@ -187,6 +188,16 @@ def _top_up(prev: np.ndarray, cfg: MotionConfig, mask: np.ndarray | None,
     return (kept if new is None else np.concatenate([kept, new.astype(np.float32)])), len(kept)
 
 
+def _steady(last: np.ndarray | None, older: np.ndarray | None, w: int, h: int) -> np.ndarray | None:
+    """``last`` when the camera moves steadily: the last two motions take the frame's corners to within
+    ``STEADY_PX`` of each other (a new view, a jolt or a clip played back and forth does not)."""
+    if last is None or older is None:
+        return None
+    c = np.float32([[[0, 0]], [[w, 0]], [[w, h]], [[0, h]]])
+    d = cv2.perspectiveTransform(c, last) - cv2.perspectiveTransform(c, older)
+    return last if float(np.abs(d).max()) < STEADY_PX else None
+
+
 def compensate(prev: np.ndarray, curr: np.ndarray, cfg: MotionConfig, mask: np.ndarray | None = None) -> Registration:
     """Camera motion prev -> curr (steps 1-2). ``mask`` (uint8, prev's shape): corners only where it is
     non-zero, unless that leaves fewer than ``MIN_MASKED_CORNERS``."""
@@ -288,6 +299,7 @@ class MotionDetector:
         self._busy: np.ndarray | None = None   # the previous frame's blobs, widened: no corners there
         self._kept: np.ndarray | None = None   # the last fit's inlier corners, on the previous frame
         self._last_H: np.ndarray | None = None  # the last camera motion, in the fit's pixels
+        self._older_H: np.ndarray | None = None  # the one before
         self._age_box: tuple[int, int, int, int] | None = None   # where the motion history holds anything
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
         # a square closing: it joins members up to merge_px apart, and costs the same at any size
@@ -299,7 +311,7 @@ class MotionDetector:
 
     def reset(self) -> None:
         self._prev = self._prev_c = self._stamp_s = self._age = self._busy = self._kept = self._age_box = None
-        self._last_H = None
+        self._last_H = self._older_H = None
 
     def update(self, frame: np.ndarray, stamp_s: float, carve_xy_px: np.ndarray | None = None,
                carve_radius_px: float = 0.0) -> MotionResult:
@@ -323,7 +335,7 @@ class MotionDetector:
         busy, self._busy = self._busy, None
         if prev is None or prev.shape != curr.shape:
             self._age = np.full(curr.shape, 255, np.uint8)
-            self._kept = self._age_box = self._last_H = None
+            self._kept = self._age_box = self._last_H = self._older_H = None
             return MotionResult.empty()
         reg = self._register(prev_c, curr_c, busy)
         if reg.H_curr_from_prev is None:
@@ -370,8 +382,8 @@ class MotionDetector:
             if free.shape != prev_c.shape:
                 free = cv2.resize(free, prev_c.shape[::-1], interpolation=cv2.INTER_NEAREST)
         reg, self._kept = _compensate(prev_c, curr_c, self.cfg, *_top_up(prev_c, self.cfg, free, self._kept),
-                                      guess=self._last_H)
-        self._last_H = reg.H_curr_from_prev
+                                      guess=_steady(self._last_H, self._older_H, *prev_c.shape[::-1]))
+        self._last_H, self._older_H = reg.H_curr_from_prev, self._last_H
         c = min(1.0, self.cfg.compensate_max_scale / self.cfg.process_scale)
         if reg.H_curr_from_prev is None or c >= 1.0:
             return reg
