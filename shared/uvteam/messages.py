@@ -765,11 +765,12 @@ def _build_blobs(cls: type, convs: list) -> Callable:
         if len(box) != n or len(area) != n or (ugv and len(ugv) != n):
             raise _Refused
         if n:   # msgspec typed the rows (two and four finite numbers each, areas >= 0): no shape to discover
+            for x0, y0, x1, y1 in box:    # on the tuples: cheaper than numpy for tens of rows
+                if x1 < x0 or y1 < y0:
+                    raise _Refused
             a_xy = _fromiter(_chain(xy), float, 2 * n).reshape(n, 2)
             a_box = _fromiter(_chain(box), float, 4 * n).reshape(n, 4)
             a_area = np.array(area, float)
-            if (a_box[:, 2:] < a_box[:, :2]).any():
-                raise _Refused
         else:
             a_xy, a_box, a_area = np.empty((0, 2)), np.empty((0, 4)), np.empty(0)
         b = _new(Blobs)
