@@ -553,8 +553,19 @@ class MotionDetector:
                 if -1 <= cx <= bw and -1 <= cy <= bh:
                     m8[(gx - cx) ** 2 + (gy - cy) ** 2 <= r2] = 0
                     kernels = self._k_splits[-1:]
+        pooled = kernels[-1].shape[0] >= POOLED_LABEL_MIN_MERGE_PX and min(bh, bw) >= POOLED_LABEL_MIN_SIDE_PX
+        if pooled:   # as for labelling (step 5): kernels of 8 px and more close a 2x2 max-pooled copy
+            h2, w2 = bh // 2 * 2, bw // 2 * 2
+            m8s = cv2.resize(cv2.dilate(m8, np.ones((2, 2), np.uint8))[:h2, :w2], (w2 // 2, h2 // 2),
+                             interpolation=cv2.INTER_NEAREST)
         for ker in kernels:
-            k, lab = cv2.connectedComponents(_close(m8, ker), connectivity=8)
+            if pooled:
+                k2 = max(3, ker.shape[0] // 2 | 1)
+                k, lab_s = cv2.connectedComponents(_close(m8s, np.ones((k2, k2), np.uint8)), connectivity=8)
+                lab = np.zeros((bh, bw), np.int32)
+                lab[:h2, :w2] = cv2.resize(lab_s, (w2, h2), interpolation=cv2.INTER_NEAREST)
+            else:
+                k, lab = cv2.connectedComponents(_close(m8, ker), connectivity=8)
             if k <= 2:
                 continue
             moved = np.bincount(lab[m8 > 0], minlength=k)[1:] * inv * inv
