@@ -39,6 +39,14 @@ def cpu_s(pid: int) -> float:
         return 0.0
 
 
+def machine_busy() -> tuple[float, float]:
+    """(busy, total) jiffies of all cores since boot (/proc/stat): the machine's load, whoever made it."""
+    with open("/proc/stat") as f:
+        v = [int(x) for x in f.readline().split()[1:]]
+    idle = v[3] + v[4]   # idle + iowait
+    return float(sum(v) - idle), float(sum(v))
+
+
 def rss_mb(pid: int) -> float:
     """Resident memory (VmRSS) of a process in MB, nan when it is gone."""
     try:

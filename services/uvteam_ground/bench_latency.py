@@ -16,6 +16,7 @@ scenario is the demo's with the UGV count and frame rate changed (written beside
 from __future__ import annotations
 
 import io
+import os
 import re
 import tempfile
 import threading
@@ -24,7 +25,7 @@ from pathlib import Path
 
 from uvteam.service import StopFlag
 
-from .bench_frames import cpu_s, rss_mb
+from .bench_frames import cpu_s, machine_busy, rss_mb
 from .demo import DEFAULT_SCENARIO, Team, run_demo
 
 COLORS = ("red", "green", "blue", "yellow", "magenta", "cyan")
@@ -82,10 +83,12 @@ def run(duration_s: float = 60.0, frames: str = "pixels", ugvs: int | None = Non
     d = Path(tempfile.mkdtemp(prefix="uvteam-bench-"))
     scenario = scenario_variant(d, ugvs, rate_hz)
     team = Team(str(scenario), duration_s=duration_s, workdir=str(d), log_level="WARNING", frames=frames)
-    t0 = time.monotonic()
+    t0, (b0, j0) = time.monotonic(), machine_busy()
     with ProcessWatch(team.procs) as watch:
         summary, codes = run_demo(team, StopFlag(install=False), live=False, out=io.StringIO())
     wall_s = time.monotonic() - t0
+    b1, j1 = machine_busy()
+    busy = (b1 - b0) / (j1 - j0)    # of all cores, by every process on the machine
     m = summary["metrics"]
     published = m.get(team.localizer, {}).get("crowds_published", 0.0)
     ugv = [m.get(u, {}) for u in team.ugvs]
@@ -99,7 +102,7 @@ def run(duration_s: float = 60.0, frames: str = "pixels", ugvs: int | None = Non
     cores = sum(watch.cpu.values()) / wall_s
     res = {"p50_ms": max(p50, default=float("nan")), "p99_ms": max(p99, default=float("nan")), "loss": max(loss),
            "published": published, "rss_mb": dict(watch.rss), "cpu_s": dict(watch.cpu), "cores": cores,
-           "ugvs": len(team.ugvs), "rate_hz": rate, "frames": frames}
+           "ugvs": len(team.ugvs), "rate_hz": rate, "frames": frames, "machine_busy": busy}
     if quiet:
         return res
     print(f"latency ({frames}; frame capture -> crowds at a UGV service, loopback, {len(team.ugvs)} UGVs, "
@@ -117,5 +120,6 @@ def run(duration_s: float = 60.0, frames: str = "pixels", ugvs: int | None = Non
     print("  " + "  ".join(f"{n}={watch.rss.get(n, float('nan')):.0f}MB/{watch.cpu.get(n, 0.0) / wall_s:.2f}"
                            for n in names))
     print(f"  UGV services: most {max(ugv_rss):.0f} MB (target <= {UGV_RSS_TARGET_MB:.0f} MB); the team used "
-          f"{cores:.2f} of the machine's cores on average")
+          f"{cores:.2f} of the machine's {os.cpu_count()} cores on average (counting each process's start); the "
+          f"machine was {busy * 100:.0f} % busy (every process on it, /proc/stat)")
     return res

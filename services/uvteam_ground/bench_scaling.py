@@ -21,7 +21,7 @@ from pathlib import Path
 
 from uvteam.service import StopFlag
 
-from .bench_frames import cpu_s
+from .bench_frames import cpu_s, machine_busy
 from .bench_latency import ProcessWatch
 from .demo import DEFAULT_SCENARIO, Team, _wait_port, free_port, run_demo, uvteam_command
 
@@ -46,7 +46,7 @@ def run_teams(n: int, duration_s: float) -> dict:
         watches = [ProcessWatch(t.procs) for t in teams] + [ProcessWatch(procs)]
         for w in watches:
             w.__enter__()
-        t0, r0 = time.monotonic(), cpu_s(router.pid)
+        t0, r0, (b0, j0) = time.monotonic(), cpu_s(router.pid), machine_busy()
         threads = [threading.Thread(target=one, args=(i,)) for i in range(n)]
         for t in threads:
             t.start()
@@ -54,6 +54,7 @@ def run_teams(n: int, duration_s: float) -> dict:
             t.join()
         wall = time.monotonic() - t0
         router_cores = (cpu_s(router.pid) - r0) / wall
+        b1, j1 = machine_busy()
         for w in watches:
             w.__exit__()
     finally:
@@ -81,19 +82,22 @@ def run_teams(n: int, duration_s: float) -> dict:
         rss += [v for k, v in w.rss.items() if k.startswith("ugv")]
     return {"teams": n, "processes": 9 * n + 1, "p50_ms": max(p50, default=float("nan")),
             "p99_ms": max(p99, default=float("nan")), "loss": max(loss, default=1.0), "cores": cores,
-            "router_cores": router_cores, "ugv_rss_mb": max(rss, default=float("nan")), "wall_s": wall}
+            "router_cores": router_cores, "ugv_rss_mb": max(rss, default=float("nan")), "wall_s": wall,
+            "machine_busy": (b1 - b0) / (j1 - j0)}
 
 
 def run(max_teams: int = 4, duration_s: float = 30.0) -> dict:
     print(f"scaling: N teams of 1 UAV + 6 UGVs (sensor model, 10 Hz) through one router, {duration_s:.0f} s each, "
           f"{os.cpu_count()} cores ({datetime.date.today()}):")
-    print(f"  {'teams':>5} {'procs':>5} {'p50':>8} {'p99':>9} {'loss':>7} {'cores used':>10} {'router':>7} {'UGV RSS':>8}")
+    print(f"  {'teams':>5} {'procs':>5} {'p50':>8} {'p99':>9} {'loss':>7} {'cores used':>10} {'router':>7} {'UGV RSS':>8} "
+          f"{'machine busy':>12}")
     rows, knee = [], None
     for n in range(1, max_teams + 1):
         r = run_teams(n, duration_s)
         rows.append(r)
         print(f"  {n:>5} {r['processes']:>5} {r['p50_ms']:>5.1f} ms {r['p99_ms']:>6.1f} ms {r['loss'] * 100:>5.1f} % "
-              f"{r['cores']:>10.2f} {r['router_cores']:>7.2f} {r['ugv_rss_mb']:>5.0f} MB", flush=True)
+              f"{r['cores']:>10.2f} {r['router_cores']:>7.2f} {r['ugv_rss_mb']:>5.0f} MB {r['machine_busy'] * 100:>10.0f} %",
+              flush=True)
         if knee is None and (r["loss"] > 0.0 or r["p99_ms"] > 2 * rows[0]["p99_ms"]):
             knee = n
             break
@@ -101,5 +105,6 @@ def run(max_teams: int = 4, duration_s: float = 30.0) -> dict:
         print(f"  no knee up to {max_teams} teams")
     else:
         print(f"  knee at {knee} teams: p99 {rows[0]['p99_ms']:.1f} -> {rows[-1]['p99_ms']:.1f} ms, loss "
-              f"{rows[-1]['loss'] * 100:.1f} %, {rows[-1]['cores']:.2f} of {os.cpu_count()} cores busy")
+              f"{rows[-1]['loss'] * 100:.1f} %, the teams used {rows[-1]['cores']:.2f} of {os.cpu_count()} cores and the "
+              f"machine was {rows[-1]['machine_busy'] * 100:.0f} % busy")
     return {"rows": rows, "knee": knee}
