@@ -2,16 +2,22 @@
 
 Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale`` for speed:
 
-1. corners on the previous frame (goodFeaturesToTrack) followed into the current one by pyramidal
-   Lucas-Kanade, checked forward-backward; corners are not taken where the previous frame's blobs were
-   (walkers and vehicles are the sharpest corners in view, and a fit that counts a walker's pixel of
-   motion as an inlier leaves the ground misregistered by a pixel, which high-contrast ground such as
-   rocks turns into crescents of false motion), unless too few corners are left outside them;
+1. corners on the previous frame followed into the current one by pyramidal Lucas-Kanade, checked
+   forward-backward; corners are not taken where the previous frame's blobs were (walkers and vehicles
+   are the sharpest corners in view, and a fit that counts a walker's pixel of motion as an inlier
+   leaves the ground misregistered by a pixel, which high-contrast ground such as rocks turns into
+   crescents of false motion), unless too few corners are left outside them. The last fit's inliers
+   are followed on from frame to frame and topped up with new ones (goodFeaturesToTrack) once fewer
+   than ``TOP_UP_BELOW`` of ``max_corners`` are left; while the camera moves steadily (its last two
+   motions agree), they are searched first where the last motion takes them, over one pyramid level,
+   and only new corners need the forward-backward check (a followed one passed it and has been an
+   inlier since); a camera that jolts gets the full search and every corner checked;
 2. the camera's motion between the frames fitted robustly (RANSAC homography, or a partial affine
    transform) and the previous frame warped onto the current one;
 3. absolute difference, threshold, restricted to pixels both frames see;
 4. a motion history: the pixels that moved in the last ``history_s`` seconds, warped along with the
-   camera so it stays registered, so that a crowd whose members move little per frame stays one blob;
+   camera so it stays registered, so that a crowd whose members move little per frame stays one blob
+   (only the box around recent motion is warped: the rest is "long ago" and stays so);
 5. morphology: speckle removed by opening each frame's mask (``speckle="open"``), or, for small or slow
    targets whose one-pixel crescents an opening would erase, by requiring two moving neighbours per
    pixel and opening the history instead (``"neighbours"``); a square closing of about one crowd spacing joins members
