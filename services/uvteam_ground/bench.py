@@ -1,10 +1,17 @@
 """`uvteam bench <what>`: benchmarks that print figures (not timed tests).
 
   localize   microseconds per localizer step, 6 landmarks and 20 blobs, one core
-  vision     UAV motion detector fps at 1280x720 and 1920x1080 on real drone frames, HOG fps at 640x480 (one core)
+  codec      a 20-blob Detections message: decode and encode beside plain msgpack, interleaved, one core
+  vision     UAV motion detector beside the plain paper pipeline and the warp floor, interleaved, one core,
+             on karma.mp4 and AU-AIR (1280x720, 1920x1080) and rendered frames; HOG fps at 640x480
   render     (from the simulator) renderer fps and the whole UAV pixel pipeline's fps on rendered frames
-  latency    frame capture -> crowd message at a UGV service over loopback zenoh
-  all        everything above
+  latency    frame capture -> crowd message at a UGV service over loopback zenoh, and each process's memory
+  frames     frames from the simulator to the UAV service over zenoh: shared memory on and off
+  scaling    N teams of 1 UAV + 6 UGVs (sensor model) through one router, N = 1, 2, ... up to the knee
+  all        everything above but scaling
+
+Ratios (project / yardstick, measured interleaved in one process) are the figures to compare across
+machines and days; absolute figures are printed beside them with the date.
 """
 
 from __future__ import annotations
@@ -88,13 +95,23 @@ def main(argv: list[str] | None = None) -> int:
     plugins = _plugins()
     ap = argparse.ArgumentParser(prog="uvteam bench", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("what", choices=["localize", "vision", "latency", *sorted(plugins), "all"])
+    ap.add_argument("what", choices=["localize", "codec", "vision", "latency", "frames", "scaling", *sorted(plugins),
+                                     "all"])
     ap.add_argument("--frames", choices=["pixels", "sensor"], default="pixels",
                     help="latency: rendered frames through the UAV's pixel pipeline (default), or the sensor model")
+    ap.add_argument("--ugvs", type=int, default=None, help="latency: UGVs in the team (default: the demo's 6)")
+    ap.add_argument("--rate", type=float, default=None, metavar="HZ",
+                    help="latency: UAV frames a second (default: the demo's 10)")
+    ap.add_argument("--duration", type=float, default=60.0, metavar="S", help="latency: seconds (default 60)")
+    ap.add_argument("--max-teams", type=int, default=4, help="scaling: the most teams to try (default 4)")
     args = ap.parse_args(argv)
     old = _one_core()
     if args.what in ("localize", "all"):
         bench_localize()
+    if args.what in ("codec", "all"):
+        from uvteam_ground import bench_codec  # noqa: PLC0415
+
+        bench_codec.run()
     if args.what in ("vision", "all"):
         from uvteam_ground import bench_vision  # noqa: PLC0415
 
@@ -102,9 +119,17 @@ def main(argv: list[str] | None = None) -> int:
     for name, ep in sorted(plugins.items()):
         if args.what in (name, "all"):
             ep.load()()
+    _all_cores(old)  # the team is ten processes or more: they must not inherit the one-core pin
+    if args.what in ("frames", "all"):
+        from uvteam_ground import bench_frames  # noqa: PLC0415
+
+        bench_frames.run()
     if args.what in ("latency", "all"):
-        _all_cores(old)  # the team is ten processes: they must not inherit the one-core pin
         from uvteam_ground import bench_latency  # noqa: PLC0415
 
-        bench_latency.run(frames=args.frames)
+        bench_latency.run(duration_s=args.duration, frames=args.frames, ugvs=args.ugvs, rate_hz=args.rate)
+    if args.what == "scaling":
+        from uvteam_ground import bench_scaling  # noqa: PLC0415
+
+        bench_scaling.run(max_teams=args.max_teams, duration_s=min(args.duration, 30.0))
     return 0

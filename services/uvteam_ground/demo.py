@@ -81,7 +81,7 @@ class Team:
     def __init__(self, scenario_path: str, *, team: str = "demo", seed: int | None = None,
                  duration_s: float | None = None, workdir: str | None = None, log_level: str = "INFO",
                  frames: str = "pixels", secure: bool = False, map_http: str | None = None,
-                 annotate: bool = False, router_args: tuple[str, ...] = ()) -> None:
+                 annotate: bool = False, router_args: tuple[str, ...] = (), router_port: int | None = None) -> None:
         if frames not in FRAMES:
             raise ValueError(f"frames must be 'pixels' or 'sensor', got {frames!r}")
         self.sc = load_scenario(scenario_path)
@@ -89,7 +89,8 @@ class Team:
         self.seed, self.duration_s = seed, duration_s or self.sc.run.duration_s
         self.dir = Path(workdir or tempfile.mkdtemp(prefix="uvteam-demo-"))
         (self.dir / "logs").mkdir(parents=True, exist_ok=True)
-        self.router_port = free_port()
+        self.own_router = router_port is None   # else: join a router already listening on 127.0.0.1:router_port
+        self.router_port = free_port() if router_port is None else router_port
         self.secure = secure
         self.endpoint = f"{'tls' if secure else 'tcp'}/127.0.0.1:{self.router_port}"
         base = TeamLayout.for_scenario(self.sc, team)
@@ -147,8 +148,9 @@ class Team:
         self.expected_exit.discard(name)
 
     def start(self) -> None:
-        self._spawn("router", ["router", "--zenoh-config", str(self.secrets / "router.json5")] if self.secure
-                    else ["router", "--listen", self.endpoint, *self.router_args])
+        if self.own_router:
+            self._spawn("router", ["router", "--zenoh-config", str(self.secrets / "router.json5")] if self.secure
+                        else ["router", "--listen", self.endpoint, *self.router_args])
         if not wait_port(self.router_port, 15.0):
             raise RuntimeError(f"the router did not come up; see {self.dir / 'logs' / 'router.log'}")
         ll = ["--log-level", self.log_level]

@@ -94,6 +94,9 @@ def run(sc, args, stop: StopFlag) -> int:
     uav_id, uav_port, uav_sys = args.uav
     uav_ap = SimAutopilot("127.0.0.1", uav_port, uav_sys, boot_unix_s=boot, mav_type=mavlink2.MAV_TYPE_QUADROTOR).start()
     duration = args.duration or sc.run.duration_s
+    # the scenario's clock starts now that the renderer is built (its terrain takes seconds): started
+    # before, the first seconds of frames went out late, stamped on time
+    t0 = sim.t0_unix_s = time.time()
     try:
         with ZenohBus.open(bus_config_from_args(args)) as bus:
             bus.declare_alive(keys.alive(args.team, "sim"))
@@ -106,7 +109,18 @@ def run(sc, args, stop: StopFlag) -> int:
             for tick in sim.ticks(duration):
                 if stop.is_set():
                     break
-                # the world is now at tick.t_s: wait for that instant, so every stamp is a real capture time
+                if tick.frame_seq is not None:
+                    # the world is at tick.t_s already: the frame is made before that instant and goes out
+                    # at it, as a camera's does when its exposure ends (rendering is the simulator's cost,
+                    # not the team's latency)
+                    with sim.lock:
+                        pose = sim.world.camera_pose()
+                        img = renderer.render(pose) if renderer is not None else None
+                        det = sim.sensor_detections(pose, tick.t_s, tick.frame_seq, uav_id) if renderer is None else None
+                        truth = sim.truth(tick.t_s, tick.frame_seq, ugv_ids)
+                        uav_state = sim.uav_state(pose, tick.t_s)
+                    frame = encode_frame(uav_id, t0 + tick.t_s, tick.frame_seq, img, args.frame_jpeg) if img is not None else None
+                # wait for the tick's instant, so every stamp is a real capture time
                 sleep = t0 + tick.t_s - time.time()
                 if sleep > 0:
                     time.sleep(sleep)
@@ -117,16 +131,9 @@ def run(sc, args, stop: StopFlag) -> int:
                     ugv_aps[f.ugv_index].send_state(f.state)
                 if tick.frame_seq is None:
                     continue
-                stamp = t0 + tick.t_s
-                with sim.lock:
-                    pose = sim.world.camera_pose()
-                    img = renderer.render(pose) if renderer is not None else None
-                    det = sim.sensor_detections(pose, tick.t_s, tick.frame_seq, uav_id) if renderer is None else None
-                    truth = sim.truth(tick.t_s, tick.frame_seq, ugv_ids)
-                    uav_state = sim.uav_state(pose, tick.t_s)
                 uav_ap.send_state(uav_state)
-                if img is not None:
-                    bus.publish(frame_key, encode_frame(uav_id, stamp, tick.frame_seq, img, args.frame_jpeg))
+                if frame is not None:
+                    bus.publish(frame_key, frame)
                 else:
                     bus.publish(sensor_key, det)
                 bus.publish(truth_key, truth)

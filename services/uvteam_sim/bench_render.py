@@ -1,6 +1,7 @@
 """Benchmark (`uvteam bench render`): the simulator's renderer and the UAV's whole pixel pipeline on rendered
 frames, one core. Registered in the ``uvteam.benchmarks`` entry-point group, so `uvteam bench` finds it
-without importing the simulator by name."""
+without importing the simulator by name; :func:`frames` is registered in ``uvteam.bench_frames``, so the
+vision benchmark runs the motion detector against its yardsticks on rendered frames too."""
 
 from __future__ import annotations
 
@@ -18,35 +19,56 @@ from .render import Renderer
 from .world import SimWorld
 
 SCENARIOS = Path(__file__).resolve().parents[2].parent / "shared" / "scenarios"
+NAMES = ("paper-fig7-alt50", "paper-fig7-alt200")
+STEP_S, STEPS_PER_FRAME = 0.025, 4   # 10 frames a second, the world stepped as the simulator steps it
+
+
+def render(name: str, n: int, size: tuple[int, int]):
+    """``n`` frames of a paper scenario at ``size`` (same field of view): (frames, world, scenario, render s)."""
+    sc = load_scenario(SCENARIOS / f"{name}.toml")
+    sc = replace(sc, camera=replace(sc.camera, width_px=size[0], height_px=size[1]))
+    world = SimWorld(sc, 1)
+    r = Renderer(world, np.random.default_rng(1))
+    out, t_render = [], 0.0
+    for _ in range(n):
+        pose = world.camera_pose()
+        t0 = time.perf_counter()
+        out.append(r.render(pose))
+        t_render += time.perf_counter() - t0
+        for _ in range(STEPS_PER_FRAME):
+            world.step(STEP_S)
+    return out, world, sc, t_render
+
+
+def frames(n: int = 60, sizes: tuple[tuple[int, int], ...] = ((1280, 720),)) -> list:
+    """(name, frames, height above ground m, frame interval s) per paper scenario and size; [] without
+    the scenarios."""
+    if not SCENARIOS.is_dir():
+        print(f"render: {SCENARIOS} not found: rendered frames skipped")
+        return []
+    out = []
+    for name in NAMES:
+        for size in sizes:
+            fr, _, sc, _ = render(name, n, size)
+            out.append((f"rendered {name} {size[0]}x{size[1]}", fr, sc.uav.altitude_agl_m, STEP_S * STEPS_PER_FRAME))
+    return out
 
 
 def run(n: int = 60) -> dict:
-    cv2.setNumThreads(1)
     """The simulator's renderer and the UAV's whole pixel pipeline (color + motion, as the service
     runs it) on rendered frames of the paper scenarios, at 1280x720 and at 1920x1080 (same field of view)."""
-    scen = SCENARIOS
-    if not scen.is_dir():
-        print(f"render: {scen} not found (the benchmark renders the paper scenarios)")
+    cv2.setNumThreads(1)
+    if not SCENARIOS.is_dir():
+        print(f"render: {SCENARIOS} not found (the benchmark renders the paper scenarios)")
         return {}
     res = {}
-    for name in ("paper-fig7-alt50", "paper-fig7-alt200"):
+    for name in NAMES:
         for w, h in ((1280, 720), (1920, 1080)):
-            sc = load_scenario(scen / f"{name}.toml")
-            sc = replace(sc, camera=replace(sc.camera, width_px=w, height_px=h))
-            world = SimWorld(sc, 1)
-            r = Renderer(world, np.random.default_rng(1))
-            frames, t_render = [], 0.0
-            for _ in range(n):
-                pose = world.camera_pose()
-                t0 = time.perf_counter()
-                frames.append(r.render(pose))
-                t_render += time.perf_counter() - t0
-                for _ in range(4):
-                    world.step(0.025)
+            fr, world, sc, t_render = render(name, n, (w, h))
             vis = UavVision(UavVisionConfig(focal_px=world.camera.focal_px, colors=tuple(sc.ugvs.colors)))
-            vis.update(frames[0], 0.0, sc.uav.altitude_agl_m)
+            vis.update(fr[0], 0.0, sc.uav.altitude_agl_m)
             t0 = time.perf_counter()
-            for i, f in enumerate(frames[1:], start=1):
+            for i, f in enumerate(fr[1:], start=1):
                 vis.update(f, 0.1 * i, sc.uav.altitude_agl_m)
             fps = (n - 1) / (time.perf_counter() - t0)
             key = f"{name}_{w}x{h}"

@@ -18,11 +18,23 @@ lists (an (N, k) array is N lists of k numbers). :func:`decode` checks, and a fa
 
 :func:`encode` refuses what :func:`decode` would refuse: the sender fails, not the receiver. The
 schema name travels in zenoh's encoding too (``application/msgpack;<schema>``).
+
+Two decoders, one set of rules. The checked decoder (:func:`_decode_checked`: msgpack unpacked with
+limits, one compiled checker per field) is the reference and the only one that explains a refusal. The
+fast one (:func:`_fast_decoder`) is generated once per message type from the same dataclasses: msgspec
+decodes straight into typed structs whose constraints are the checked decoder's (types, finiteness,
+ranges by name, string and list lengths, unknown fields), then the arrays and dataclasses are built and
+the message's ``_rules`` run. Whatever the fast decoder cannot accept falls through to the checked one,
+which accepts it or raises the error naming the field: a payload is accepted by both or refused with the
+same :class:`MessageError` (``tests/unit/test_messages.py`` checks the two agree on mutated payloads).
+A Detections message of 20 blobs decodes in ~5-10 us instead of ~80 us (``uvteam bench codec``).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
+import sys
 import types
 import typing
 from dataclasses import MISSING, dataclass, field, fields, is_dataclass
@@ -30,6 +42,7 @@ from functools import cache
 from typing import Annotated, Any, Callable, ClassVar, TypeVar
 
 import msgpack
+import msgspec
 import numpy as np
 
 from .blobs import Blobs, Columns, Landmarks
@@ -60,6 +73,28 @@ def encoding_of(cls: type) -> str:
 def _rule(ok: bool, name: str, why: str) -> None:
     if not ok:
         raise ValueError(f"{name}\x00{why}")
+
+
+# Strings already found to be ids (:func:`uvteam.vocab.is_id`), and labels (an id or ""): every message
+# repeats the same few, and a set lookup is ~20x cheaper than the pattern. Bounded: cleared when full.
+_IDS_SEEN: set = set()
+_LABELS_SEEN: set = {""}
+_SEEN_MAX = 4096
+
+
+def _all_ids(names, seen: set = _IDS_SEEN) -> bool:
+    """Whether every name is an id (``seen`` = :data:`_LABELS_SEEN`: an id or ""); names are strings."""
+    if seen.issuperset(names):
+        return True
+    for u in names:
+        if u not in seen:
+            if not is_id(u):
+                return False
+            if len(seen) >= _SEEN_MAX:
+                seen.clear()
+                seen.update(("",) if seen is _LABELS_SEEN else ())
+            seen.add(u)
+    return True
 
 
 @dataclass(frozen=True, slots=True)
@@ -153,11 +188,12 @@ class Detections:
     sigma_crowd_blob_px: float  # a crowd's motion-blob centre, against its members' centroid
     pose: CameraPoseReport | None = None   # the camera's pose, when the UAV knows it
 
-    def _rules(self) -> None:
-        _rule(len(self.blobs) <= MAX_BLOBS, "blobs", f"at most {MAX_BLOBS} blobs in a frame, got {len(self.blobs)}")
+    def _rules(self) -> None:   # on every frame: the reasons are only formatted for a refusal
+        if len(self.blobs) > MAX_BLOBS:
+            _rule(False, "blobs", f"at most {MAX_BLOBS} blobs in a frame, got {len(self.blobs)}")
         _rule(self.focal_px > 0, "focal_px", "expected a focal length > 0")
-        _rule(all(is_id(u) for u in self.landmarks.ugv), "landmarks", "landmark names must be ids")
-        _rule(all(u == "" or is_id(u) for u in self.blobs.ugv), "blobs", "blob labels must be ids or empty")
+        _rule(_all_ids(self.landmarks.ugv), "landmarks", "landmark names must be ids")
+        _rule(_all_ids(self.blobs.ugv, _LABELS_SEEN), "blobs", "blob labels must be ids or empty")
 
     def __eq__(self, other) -> bool:
         return isinstance(other, Detections) and all(getattr(self, f.name) == getattr(other, f.name) for f in fields(self))
@@ -248,7 +284,7 @@ class Crowds:
 
     def _rules(self) -> None:
         _rule(self.quality in QUALITIES, "quality", f"expected one of {', '.join(QUALITIES)}")
-        _rule(all(is_id(u) for u in self.landmarks_used + self.outlier_landmarks), "landmarks_used",
+        _rule(_all_ids(self.landmarks_used + self.outlier_landmarks), "landmarks_used",
               "landmark names must be ids")
         _rule(len({c.crowd_id for c in self.crowds}) == len(self.crowds), "crowds", "crowd ids must be unique")
 
@@ -330,9 +366,24 @@ def _to_wire(v: Any) -> Any:
     return v
 
 
+def _enc_hook(v: Any) -> Any:
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, np.generic):
+        return v.item()
+    raise NotImplementedError(f"cannot put a {type(v).__name__} on the wire")
+
+
+_ENCODER = msgspec.msgpack.Encoder(enc_hook=_enc_hook)
+
+
 def encode(msg: Any) -> bytes:
     """Message -> bytes. Refuses to send what decode would refuse (never a NaN on the wire)."""
-    raw = msgpack.packb({"schema": type(msg).SCHEMA, "data": _to_wire(msg)}, use_bin_type=True)
+    try:
+        # msgspec writes a dataclass as the map of its fields, as _to_wire does, in one pass in C
+        raw = _ENCODER.encode({"schema": type(msg).SCHEMA, "data": msg})
+    except (TypeError, NotImplementedError, msgspec.EncodeError):
+        raw = msgpack.packb({"schema": type(msg).SCHEMA, "data": _to_wire(msg)}, use_bin_type=True)
     decode(type(msg), raw)  # the same validation as the receiver: fail at the sender
     return raw
 
@@ -406,7 +457,7 @@ def _str(schema: str, name: str, is_ident: bool) -> Checker:
             raise MessageError(schema, name, f"expected a string, got {type(v).__name__}")
         if len(v) > MAX_STR_LEN:
             raise MessageError(schema, name, f"string longer than {MAX_STR_LEN} characters ({len(v)})")
-        if is_ident and not is_id(v):
+        if is_ident and not _all_ids((v,)):
             raise MessageError(schema, name, f"expected an id (1-32 of A-Z a-z 0-9 _ -), got {v!r}")
         return v
     return check
@@ -562,15 +613,29 @@ def _unpack_limits(cls: type) -> tuple[int, dict]:
 
 def decode(cls: type[T], raw: bytes) -> T:
     """Bytes -> a validated message of type ``cls``, or MessageError."""
+    fast = _fast_decoder(cls)
+    return _decode_checked(cls, raw) if fast is None else fast(raw)
+
+
+def _decode_checked(cls: type[T], raw: bytes) -> T:
+    """The reference decoder: every rule checked in Python, and a refusal explained."""
+    return _from_wire(cls, _unpack_checked(cls, raw))
+
+
+def _unpack_checked(cls: type, raw: bytes) -> Any:
     schema = cls.SCHEMA
     max_bytes, limits = _unpack_limits(cls)
     if len(raw) > max_bytes:
         raise MessageError(schema, "<payload>", f"payload of {len(raw)} bytes is over {schema}'s {max_bytes}")
     try:
         # arrays as tuples: an empty one is a shared singleton, so a payload of empty arrays costs little
-        wire = msgpack.unpackb(raw, raw=False, strict_map_key=True, use_list=False, **limits)
+        return msgpack.unpackb(raw, raw=False, strict_map_key=True, use_list=False, **limits)
     except Exception as exc:  # msgpack raises several unrelated types for bad input
         raise MessageError(schema, "<payload>", f"not MessagePack within limits: {exc}") from None
+
+
+def _from_wire(cls: type[T], wire: Any) -> T:
+    schema = cls.SCHEMA
     if wire.__class__ is not dict or "schema" not in wire or "data" not in wire or len(wire) != 2:
         raise MessageError(schema, "<envelope>", "expected {schema, data}")
     got = wire["schema"]
@@ -584,3 +649,222 @@ def decode(cls: type[T], raw: bytes) -> T:
         raise MessageError(schema, "schema", f"unsupported version {version!r} (this build reads {want_version})")
     return _decoder(cls)(wire["data"], schema)
 
+
+# --- the fast decoder: msgspec structs generated from the dataclasses -------------------------------
+class _Refused(Exception):
+    """The fast decoder cannot accept a payload: the checked decoder decides."""
+
+
+_FAST_REFUSALS = (_Refused, msgspec.MsgspecError, ValueError, TypeError, OverflowError)
+_MAX_FLOAT = sys.float_info.max
+_FINITE = msgspec.Meta(ge=-_MAX_FLOAT, le=_MAX_FLOAT)     # NaN and infinities fail both bounds
+_SLOW_ONLY = frozenset({Frame})   # one big bytes field: the checked decoder costs one copy, like msgspec
+_new = object.__new__
+_set = object.__setattr__
+_chain = itertools.chain.from_iterable
+_fromiter = np.fromiter
+
+
+def _float_meta(name: str) -> msgspec.Meta:
+    """:func:`field_range`'s bounds for a float field, as msgspec constraints (NaN fails every bound);
+    one table for both decoders and the published schemas."""
+    r = field_range(name)
+    if r is None:
+        return _FINITE
+    lo, hi, lo_closed, hi_closed, _ = r
+    bounds = {"ge" if lo_closed else "gt": -_MAX_FLOAT if lo is None else lo,
+              "le" if hi_closed else "lt": _MAX_FLOAT if hi is None else hi}
+    return msgspec.Meta(**bounds)
+
+
+def _refuse() -> None:
+    raise _Refused
+
+
+def _check_ids(v: str) -> str:
+    return v if _all_ids((v,)) else _refuse()
+
+
+def _vector(v: list) -> np.ndarray:
+    return np.array(v, float) if v else np.empty(0)
+
+
+def _rows(cols: int) -> Callable[[list], np.ndarray]:
+    def conv(v: list) -> np.ndarray:
+        return np.array(v, float) if v else np.empty((0, cols))
+    return conv
+
+
+class _FastGen:
+    """msgspec types and converters for one message type; ``min_entry`` tracks the smallest map entry."""
+
+    def __init__(self) -> None:
+        self.min_entry = 1 << 30
+        self.structs: dict[type, tuple[type, Callable]] = {}
+
+    def field_type(self, name: str, tp: Any) -> tuple[Any, Callable | None]:
+        """(msgspec type, converter to the dataclass's value or None) of one field, as :func:`_checker`."""
+        origin = typing.get_origin(tp)
+        if origin is Annotated:
+            base, *meta = typing.get_args(tp)
+            cols = next((m.n for m in meta if isinstance(m, Columns)), None)
+            if base is np.ndarray and cols is not None:
+                num = Annotated[float, _FINITE]
+                row = num if cols == 0 else tuple.__class_getitem__((num,) * cols)
+                return Annotated[list[row], msgspec.Meta(max_length=MAX_LIST)], (_vector if cols == 0 else _rows(cols))
+            return self.field_type(name, base)
+        if origin in (types.UnionType, typing.Union):
+            args = [a for a in typing.get_args(tp) if a is not type(None)]
+            inner, conv = self.field_type(name, args[0])
+            return typing.Optional[inner], (None if conv is None else (lambda v: None if v is None else conv(v)))
+        if tp is float:
+            return Annotated[float, _float_meta(name)], None
+        if tp is int:
+            return Annotated[int, msgspec.Meta(ge=0, lt=1 << 53)], None
+        if tp is str:
+            return Annotated[str, msgspec.Meta(max_length=256)], (_check_ids if name in ID_FIELDS else None)
+        if tp is bytes:
+            return bytes, None
+        if origin is tuple:
+            inner, conv = self.field_type(name, typing.get_args(tp)[0])
+            return (Annotated[tuple[inner, ...], msgspec.Meta(max_length=MAX_LIST)],
+                    None if conv is None else (lambda v: tuple(map(conv, v))))
+        if origin is dict:
+            _k, v = typing.get_args(tp)
+            inner, conv = self.field_type(name, v)
+            self.min_entry = min(self.min_entry, 3)     # a one-character key and a one-byte value
+
+            def mapping(d: dict) -> dict:
+                if not _all_ids(d):
+                    raise _Refused
+                return d if conv is None else {k: conv(x) for k, x in d.items()}
+            return Annotated[dict[str, inner], msgspec.Meta(max_length=256)], mapping
+        if isinstance(tp, type) and is_dataclass(tp):
+            return self.struct(tp)
+        raise TypeError(f"{name}: unsupported field type {tp!r}")
+
+    def struct(self, cls: type) -> tuple[type, Callable]:
+        if cls in self.structs:
+            return self.structs[cls]
+        hints = typing.get_type_hints(cls, include_extras=True)
+        specs, convs = [], []
+        for i, f in enumerate(fields(cls)):
+            ftype, conv = self.field_type(f.name, hints[f.name])
+            self.min_entry = min(self.min_entry, len(msgpack.packb(f.name)) + 1)
+            if f.default is not MISSING:
+                specs.append((f.name, ftype, f.default))
+            elif f.default_factory is not MISSING:
+                specs.append((f.name, ftype, msgspec.field(default_factory=f.default_factory)))
+            else:
+                specs.append((f.name, ftype))
+            if conv is not None:
+                convs.append((i, conv))
+        if cls is Blobs and specs[2][0] == "area_px":    # Blobs' own rule, checked as msgspec decodes
+            area = Annotated[float, msgspec.Meta(ge=0.0, le=_MAX_FLOAT)]
+            specs[2] = ("area_px", Annotated[list[area], msgspec.Meta(max_length=MAX_LIST)], *specs[2][2:])
+        st = msgspec.defstruct(f"_Wire{cls.__name__}", specs, forbid_unknown_fields=True)
+        build = _BUILDERS.get(cls, _build)(cls, convs)
+        self.structs[cls] = (st, build)
+        return st, build
+
+
+def _build(cls: type, convs: list) -> Callable:
+    """struct -> dataclass (fields converted, the type's own checks and ``_rules`` run), as one generated
+    function per type: ``cls(c3(st.a), st.b, ...)``, as dataclasses generate their ``__init__``."""
+    names = [f.name for f in fields(cls)]
+    conv_of = dict(convs)
+    env: dict[str, Any] = {"cls": cls, "rules": getattr(cls, "_rules", None)}
+    args = []
+    for i, n in enumerate(names):
+        if i in conv_of:
+            env[f"c{i}"] = conv_of[i]
+            args.append(f"c{i}(st.{n})")
+        else:
+            args.append(f"st.{n}")
+    src = (f"def build(st):\n    msg = cls({', '.join(args)})\n"
+           + ("    rules(msg)\n" if env["rules"] is not None else "") + "    return msg\n")
+    exec(src, env)   # noqa: S102 - the source is built from the dataclass's own field names
+    return env["build"]
+
+
+def _build_blobs(cls: type, convs: list) -> Callable:
+    """Blobs without a second pass over its arrays: what ``Blobs.__post_init__`` checks, checked here on
+    what msgspec already typed (rows of finite numbers), the rest (lengths, boxes, areas) in one go."""
+    if [f.name for f in fields(cls)] != ["xy_px", "xyxy_px", "area_px", "ugv"]:
+        return _build(cls, convs)      # Blobs changed: construct it the ordinary way
+
+    def build(st: Any) -> Blobs:
+        xy, box, area, ugv = st.xy_px, st.xyxy_px, st.area_px, st.ugv
+        n = len(xy)
+        if len(box) != n or len(area) != n or (ugv and len(ugv) != n):
+            raise _Refused
+        if n:   # msgspec typed the rows (two and four finite numbers each, areas >= 0): no shape to discover
+            for x0, y0, x1, y1 in box:    # on the tuples: cheaper than numpy for tens of rows
+                if x1 < x0 or y1 < y0:
+                    raise _Refused
+            a_xy = _fromiter(_chain(xy), float, 2 * n).reshape(n, 2)
+            a_box = _fromiter(_chain(box), float, 4 * n).reshape(n, 4)
+            a_area = np.array(area, float)
+        else:
+            a_xy, a_box, a_area = np.empty((0, 2)), np.empty((0, 4)), np.empty(0)
+        b = _new(Blobs)
+        _set(b, "xy_px", a_xy)
+        _set(b, "xyxy_px", a_box)
+        _set(b, "area_px", a_area)
+        _set(b, "ugv", ugv if ugv else ("",) * n)
+        return b
+    return build
+
+
+def _build_landmarks(cls: type, convs: list) -> Callable:
+    """Landmarks as :func:`_build_blobs` builds Blobs: names one per row, non-empty and unique."""
+    if [f.name for f in fields(cls)] != ["ugv", "xy_px"]:
+        return _build(cls, convs)
+
+    def build(st: Any) -> Landmarks:
+        ugv, xy = st.ugv, st.xy_px
+        if len(ugv) != len(xy) or "" in ugv or len(set(ugv)) != len(ugv):
+            raise _Refused
+        lm = _new(Landmarks)
+        _set(lm, "ugv", ugv)
+        _set(lm, "xy_px", _fromiter(_chain(xy), float, 2 * len(xy)).reshape(-1, 2) if xy else np.empty((0, 2)))
+        return lm
+    return build
+
+
+_BUILDERS = {Blobs: _build_blobs, Landmarks: _build_landmarks}
+
+
+@cache
+def _fast_decoder(cls: type) -> Callable[[bytes], Any] | None:
+    """A decoder bytes -> ``cls`` (None: types left to the checked decoder) that hands what it does not
+    accept to the checked one. The checked decoder's unpacking limits are kept: a payload too short to
+    hold a map of more than 512 entries cannot break them; a longer one is unpacked with the limits first
+    (msgspec takes a repeated key's last value, as msgpack does, but has no cap), and that unpacking is
+    what the checked decoder goes on from, so a refused bomb costs what it did."""
+    if cls in _SLOW_ONLY:
+        return None
+    gen = _FastGen()
+    data_t, build = gen.struct(cls)
+    env = msgspec.defstruct(f"_Envelope{cls.__name__}", [("schema", str), ("data", data_t)], forbid_unknown_fields=True)
+    decoder = msgspec.msgpack.Decoder(env)
+    schema = cls.SCHEMA
+    unlimited_below = min(513 * gen.min_entry, _unpack_limits(cls)[0] + 1)
+
+    def attempt(raw: bytes) -> Any:
+        """The message if msgspec and the builders accept ``raw``, else one of ``_FAST_REFUSALS``."""
+        env = decoder.decode(raw)
+        if env.schema != schema:
+            raise _Refused
+        return build(env.data)
+
+    def fast(raw: bytes) -> Any:
+        wire = None
+        if len(raw) >= unlimited_below:   # (or over MAX_BYTES): unpacked within limits first
+            wire = _unpack_checked(cls, raw)
+        try:
+            return attempt(raw)
+        except _FAST_REFUSALS:   # the checked decoder accepts it after all, or says what is wrong with it
+            return _from_wire(cls, wire) if wire is not None else _decode_checked(cls, raw)
+    fast.attempt = attempt   # for the tests that hold the two decoders to each other
+    return fast

@@ -2,16 +2,22 @@
 
 Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale`` for speed:
 
-1. corners on the previous frame (goodFeaturesToTrack) followed into the current one by pyramidal
-   Lucas-Kanade, checked forward-backward; corners are not taken where the previous frame's blobs were
-   (walkers and vehicles are the sharpest corners in view, and a fit that counts a walker's pixel of
-   motion as an inlier leaves the ground misregistered by a pixel, which high-contrast ground such as
-   rocks turns into crescents of false motion), unless too few corners are left outside them;
+1. corners on the previous frame followed into the current one by pyramidal Lucas-Kanade, checked
+   forward-backward; corners are not taken where the previous frame's blobs were (walkers and vehicles
+   are the sharpest corners in view, and a fit that counts a walker's pixel of motion as an inlier
+   leaves the ground misregistered by a pixel, which high-contrast ground such as rocks turns into
+   crescents of false motion), unless too few corners are left outside them. The last fit's inliers
+   are followed on from frame to frame and topped up with new ones (goodFeaturesToTrack) once fewer
+   than ``TOP_UP_BELOW`` of ``max_corners`` are left; while the camera moves steadily (its last two
+   motions agree), they are searched first where the last motion takes them, over one pyramid level,
+   and only new corners need the forward-backward check (a followed one passed it and has been an
+   inlier since); a camera that jolts gets the full search and every corner checked;
 2. the camera's motion between the frames fitted robustly (RANSAC homography, or a partial affine
    transform) and the previous frame warped onto the current one;
 3. absolute difference, threshold, restricted to pixels both frames see;
 4. a motion history: the pixels that moved in the last ``history_s`` seconds, warped along with the
-   camera so it stays registered, so that a crowd whose members move little per frame stays one blob;
+   camera so it stays registered, so that a crowd whose members move little per frame stays one blob
+   (only the box around recent motion is warped: the rest is "long ago" and stays so);
 5. morphology: speckle removed by opening each frame's mask (``speckle="open"``), or, for small or slow
    targets whose one-pixel crescents an opening would erase, by requiring two moving neighbours per
    pixel and opening the history instead (``"neighbours"``); a square closing of about one crowd spacing joins members
@@ -51,6 +57,9 @@ LK_ITERATIONS, LK_EPSILON = 20, 0.03
 AFFINE_TOLERANCE_PX = 0.05  # a homography moving no frame pixel more than this from its affine part is warped affinely
 POOLED_LABEL_MIN_MERGE_PX = 8   # blobs joined over at least this many px are labelled on a 2x2 max-pooled mask
 POOLED_LABEL_MIN_SIDE_PX = 64
+NEAR_LEVELS = 1             # pyramid levels searched around where the last camera motion takes a corner
+STEADY_PX = 4.0             # ... when the last two motions agree this well (a level-1 search reaches ~2 windows)
+TOP_UP_BELOW = 0.6          # corners followed from frame to frame are topped up below this fraction of max_corners
 
 __all__ = ["MotionConfig", "MotionResult", "Registration", "MotionDetector", "bounds_for_altitude", "compensate"]
 
@@ -148,55 +157,135 @@ class MotionResult:
         return self.registration.residual_px
 
 
+def _corners(prev: np.ndarray, cfg: MotionConfig, mask: np.ndarray | None, n: int) -> np.ndarray | None:
+    """Up to ``n`` corners of ``prev``, where ``mask`` is non-zero unless that leaves fewer than
+    ``MIN_MASKED_CORNERS`` (then anywhere)."""
+    p0 = None
+    if mask is not None:
+        p0 = cv2.goodFeaturesToTrack(prev, n, cfg.corner_quality, cfg.corner_min_distance_px, mask=mask,
+                                     blockSize=CORNER_BLOCK_PX)
+        if p0 is not None and len(p0) < min(n, MIN_MASKED_CORNERS):
+            p0 = None
+    if p0 is None:
+        p0 = cv2.goodFeaturesToTrack(prev, n, cfg.corner_quality, cfg.corner_min_distance_px, blockSize=CORNER_BLOCK_PX)
+    return p0
+
+
+def _top_up(prev: np.ndarray, cfg: MotionConfig, mask: np.ndarray | None,
+            kept: np.ndarray | None) -> tuple[np.ndarray | None, int]:
+    """The corners to follow from ``prev`` and how many of them come first from the last fit: those
+    ``kept`` (already on ``prev``, off ``mask``'s zeros), topped up with new ones away from them once
+    fewer than ``TOP_UP_BELOW`` of ``max_corners`` are left; all new ones when nothing is kept."""
+    if kept is not None and mask is not None and len(kept):
+        h, w = mask.shape
+        xy = np.clip(np.round(kept.reshape(-1, 2)).astype(np.int32), 0, [w - 1, h - 1])
+        kept = kept[mask[xy[:, 1], xy[:, 0]] > 0]
+    if kept is None or len(kept) == 0:
+        return _corners(prev, cfg, mask, cfg.max_corners), 0
+    if len(kept) >= TOP_UP_BELOW * cfg.max_corners:
+        return kept, len(kept)
+    # new corners at least the minimum distance from the kept ones, as goodFeaturesToTrack spaces its own
+    room = np.full(prev.shape, 255, np.uint8) if mask is None else mask.copy()
+    r = max(1, int(round(cfg.corner_min_distance_px)))
+    for x, y in np.round(kept.reshape(-1, 2)).astype(np.int32):
+        cv2.circle(room, (int(x), int(y)), r, 0, -1)
+    new = cv2.goodFeaturesToTrack(prev, cfg.max_corners - len(kept), cfg.corner_quality, cfg.corner_min_distance_px,
+                                  mask=room, blockSize=CORNER_BLOCK_PX)
+    return (kept if new is None else np.concatenate([kept, new.astype(np.float32)])), len(kept)
+
+
+def _steady(last: np.ndarray | None, older: np.ndarray | None, w: int, h: int) -> np.ndarray | None:
+    """``last`` when the camera moves steadily: the last two motions take the frame's corners to within
+    ``STEADY_PX`` of each other (a new view, a jolt or a clip played back and forth does not)."""
+    if last is None or older is None:
+        return None
+    c = np.float32([[[0, 0]], [[w, 0]], [[w, h]], [[0, h]]])
+    d = cv2.perspectiveTransform(c, last) - cv2.perspectiveTransform(c, older)
+    return last if float(np.abs(d).max()) < STEADY_PX else None
+
+
 def compensate(prev: np.ndarray, curr: np.ndarray, cfg: MotionConfig, mask: np.ndarray | None = None) -> Registration:
     """Camera motion prev -> curr (steps 1-2). ``mask`` (uint8, prev's shape): corners only where it is
     non-zero, unless that leaves fewer than ``MIN_MASKED_CORNERS``."""
-    p0 = None
-    if mask is not None:
-        p0 = cv2.goodFeaturesToTrack(prev, cfg.max_corners, cfg.corner_quality, cfg.corner_min_distance_px,
-                                     mask=mask, blockSize=CORNER_BLOCK_PX)
-        if p0 is not None and len(p0) < MIN_MASKED_CORNERS:
-            p0 = None
-    if p0 is None:
-        p0 = cv2.goodFeaturesToTrack(prev, cfg.max_corners, cfg.corner_quality, cfg.corner_min_distance_px,
-                                     blockSize=CORNER_BLOCK_PX)
+    return _compensate(prev, curr, cfg, _corners(prev, cfg, mask, cfg.max_corners))[0]
+
+
+def _compensate(prev: np.ndarray, curr: np.ndarray, cfg: MotionConfig, p0: np.ndarray | None,
+                n_followed: int = 0, guess: np.ndarray | None = None) -> tuple[Registration, np.ndarray | None]:
+    """Camera motion prev -> curr from the corners ``p0`` on prev (the first ``n_followed`` of them
+    followed from the frame before); and the inliers' positions in curr, the corners the next frame
+    follows (None when the fit failed). ``guess``: the last camera motion; the camera moves smoothly, so
+    the corners are first looked for where it would take them, over ``NEAR_LEVELS`` pyramid levels
+    only, and over all of them when that loses more than half."""
     if p0 is None or len(p0) < MIN_FIT_POINTS:
-        return Registration.failed()
+        return Registration.failed(), None
     lk = dict(winSize=(cfg.lk_window_px, cfg.lk_window_px), maxLevel=cfg.lk_levels,
               criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, LK_ITERATIONS, LK_EPSILON))
-    p1, st, _ = cv2.calcOpticalFlowPyrLK(prev, curr, p0, None, **lk)
-    p0r, st2, _ = cv2.calcOpticalFlowPyrLK(curr, prev, p1, None, **lk)
-    fb = np.sqrt(((p0 - p0r) ** 2).sum(-1)).ravel()
-    ok = (st.ravel() == 1) & (st2.ravel() == 1) & (fb < FORWARD_BACKWARD_PX)
+    st = None
+    if guess is not None and cfg.lk_levels > NEAR_LEVELS:
+        pred = cv2.perspectiveTransform(p0, guess).astype(np.float32)
+        p1, st, _ = cv2.calcOpticalFlowPyrLK(prev, curr, p0, pred, **{**lk, "maxLevel": NEAR_LEVELS},
+                                             flags=cv2.OPTFLOW_USE_INITIAL_FLOW)
+        if st.sum() * 2 < len(p0):
+            st = None
+    if st is None:
+        p1, st, _ = cv2.calcOpticalFlowPyrLK(prev, curr, p0, None, **lk)
+    ok = st.ravel() == 1
+    # the forward-backward check, for new corners only: a followed one passed it, and was an inlier since
+    new = np.flatnonzero(ok[n_followed:]) + n_followed
+    if len(new):
+        back, st2, _ = cv2.calcOpticalFlowPyrLK(curr, prev, p1[new], None, **lk)
+        fb = np.sqrt(((p0[new] - back) ** 2).sum(-1)).ravel()
+        ok[new] = (st2.ravel() == 1) & (fb < FORWARD_BACKWARD_PX)
     a, b = p0[ok].reshape(-1, 2), p1[ok].reshape(-1, 2)
     if len(a) < MIN_FIT_POINTS:
-        return Registration.failed(len(a))
+        return Registration.failed(len(a)), None
     if cfg.model == "homography":
         M, inl = cv2.findHomography(a, b, cv2.RANSAC, cfg.ransac_px)
     else:
         A, inl = cv2.estimateAffinePartial2D(a, b, method=cv2.RANSAC, ransacReprojThreshold=cfg.ransac_px)
         M = None if A is None else np.vstack([A, [0.0, 0.0, 1.0]])
     if M is None or inl is None:
-        return Registration.failed(len(a))
+        return Registration.failed(len(a)), None
     inl = inl.ravel().astype(bool)
     q = cv2.perspectiveTransform(a[inl].reshape(-1, 1, 2), M).reshape(-1, 2)
     rms = float(np.sqrt(((q - b[inl]) ** 2).sum(1).mean())) if inl.any() else float("nan")
-    return Registration(M, len(a), int(inl.sum()), rms)
+    return Registration(M, len(a), int(inl.sum()), rms), b[inl].reshape(-1, 1, 2).astype(np.float32)
 
 
 def _warper(M: np.ndarray, w: int, h: int):
     """A warp by M for (w, h) images: affine (2.5x faster) when M's projective part moves no pixel of
-    the frame by more than 0.05 px, as between two frames of a hovering camera; else perspective."""
+    the frame by more than 0.05 px, as between two frames of a hovering camera; else perspective.
+    ``roi`` (x0, y0, x1, y1): only that part of the warped image (the same pixels, computed alone)."""
     A = M[:2] / M[2, 2]
     corners = np.array([[0.0, 0.0], [w - 1.0, 0.0], [w - 1.0, h - 1.0], [0.0, h - 1.0]])
     hom = np.column_stack([corners, np.ones(4)])
     p = hom @ M.T
     exact = p[:, :2] / p[:, 2:3]
-    if np.abs(exact - hom @ A.T).max() < AFFINE_TOLERANCE_PX:
-        return lambda img, interp, border: cv2.warpAffine(img, A, (w, h), flags=interp, borderMode=cv2.BORDER_CONSTANT,
-                                                          borderValue=border)
-    return lambda img, interp, border: cv2.warpPerspective(img, M, (w, h), flags=interp, borderMode=cv2.BORDER_CONSTANT,
-                                                           borderValue=border)
+    affine = np.abs(exact - hom @ A.T).max() < AFFINE_TOLERANCE_PX
+
+    def warp(img: np.ndarray, interp: int, border: int, roi: tuple[int, int, int, int] | None = None) -> np.ndarray:
+        x0, y0, x1, y1 = roi if roi is not None else (0, 0, w, h)
+        if affine:
+            Ar = A.copy()
+            Ar[:, 2] -= (x0, y0)
+            return cv2.warpAffine(img, Ar, (x1 - x0, y1 - y0), flags=interp, borderMode=cv2.BORDER_CONSTANT,
+                                  borderValue=border)
+        Mr = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]]) @ M if roi is not None else M
+        return cv2.warpPerspective(img, Mr, (x1 - x0, y1 - y0), flags=interp, borderMode=cv2.BORDER_CONSTANT,
+                                   borderValue=border)
+    return warp
+
+
+def _warped_box(M: np.ndarray, box: tuple[int, int, int, int], w: int, h: int) -> tuple[int, int, int, int] | None:
+    """The pixels of a (w, h) image that the box (x, y, width, height) lands on under M, with a margin for
+    rounding; None when it lands outside."""
+    x, y, bw, bh = box
+    q = cv2.perspectiveTransform(np.float32([[[x, y]], [[x + bw, y]], [[x + bw, y + bh]], [[x, y + bh]]]), M)
+    lo, hi = np.floor(q.reshape(-1, 2).min(0)) - 2, np.ceil(q.reshape(-1, 2).max(0)) + 3
+    x0, y0 = int(max(0, lo[0])), int(max(0, lo[1]))
+    x1, y1 = int(min(w, hi[0])), int(min(h, hi[1]))
+    return (x0, y0, x1, y1) if x1 > x0 and y1 > y0 else None
 
 
 def _close(mask: np.ndarray, kernel: np.ndarray) -> np.ndarray:
@@ -214,6 +303,10 @@ class MotionDetector:
         self._stamp_s: float | None = None
         self._age: np.ndarray | None = None
         self._busy: np.ndarray | None = None   # the previous frame's blobs, widened: no corners there
+        self._kept: np.ndarray | None = None   # the last fit's inlier corners, on the previous frame
+        self._last_H: np.ndarray | None = None  # the last camera motion, in the fit's pixels
+        self._older_H: np.ndarray | None = None  # the one before
+        self._age_box: tuple[int, int, int, int] | None = None   # where the motion history holds anything
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
         # a square closing: it joins members up to merge_px apart, and costs the same at any size
         self._k_close = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.merge_px, cfg.merge_px))
@@ -223,7 +316,8 @@ class MotionDetector:
         self._k_splits = [cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)) for k in sizes]
 
     def reset(self) -> None:
-        self._prev = self._prev_c = self._stamp_s = self._age = self._busy = None
+        self._prev = self._prev_c = self._stamp_s = self._age = self._busy = self._kept = self._age_box = None
+        self._last_H = self._older_H = None
 
     def moved_near(self, xy_px: np.ndarray) -> np.ndarray | None:
         """(N,) bool: whether each full-resolution point lies on what moved in the previous frame (its
@@ -260,22 +354,24 @@ class MotionDetector:
         busy, self._busy = self._busy, None
         if prev is None or prev.shape != curr.shape:
             self._age = np.full(curr.shape, 255, np.uint8)
+            self._kept = self._age_box = self._last_H = self._older_H = None
             return MotionResult.empty()
         reg = self._register(prev_c, curr_c, busy)
         if reg.H_curr_from_prev is None:
             self._age[:] = 255  # lost registration: the history is no longer aligned
+            self._age_box = None
             return MotionResult.empty(reg)
         h, w = curr.shape
         warp = _warper(reg.H_curr_from_prev, w, h)
         moving = self._moving(prev, curr, reg.H_curr_from_prev, warp)
-        recent, moving = self._history(moving, warp, dt_s)
+        recent, moving = self._history(moving, warp, reg.H_curr_from_prev, dt_s)
         joined = cv2.morphologyEx(recent, cv2.MORPH_CLOSE, self._k_close)
         # the next frame takes no corners on what moves (a corner half a kernel from a blob is on it)
         self._busy = cv2.dilate(joined, self._k_close)
         s = self.cfg.process_scale
         carve = np.empty((0, 2)) if carve_xy_px is None else (np.asarray(carve_xy_px, float).reshape(-1, 2) + 0.5) * s - 0.5
         r2 = (carve_radius_px * s) ** 2
-        comps = [part for x, y, comp in self._components(joined)
+        comps = [part for x, y, comp in self._components(joined, carve)
                  for part in self._split(comp, recent[y:y + comp.shape[0], x:x + comp.shape[1]], x, y, carve, r2, 1.0 / s)]
         xy, boxes, areas, carved = [], [], [], []
         for x, y, bw, bh, comp in comps:
@@ -304,7 +400,11 @@ class MotionDetector:
             free = cv2.bitwise_not(busy)
             if free.shape != prev_c.shape:
                 free = cv2.resize(free, prev_c.shape[::-1], interpolation=cv2.INTER_NEAREST)
-        reg = compensate(prev_c, curr_c, self.cfg, free)
+        p0, n_followed = _top_up(prev_c, self.cfg, free, self._kept)
+        guess = _steady(self._last_H, self._older_H, *prev_c.shape[::-1])
+        # a camera that jolts (gimbal jitter, a new view) gets every corner checked forward and back
+        reg, self._kept = _compensate(prev_c, curr_c, self.cfg, p0, n_followed if guess is not None else 0, guess)
+        self._last_H, self._older_H = reg.H_curr_from_prev, self._last_H
         c = min(1.0, self.cfg.compensate_max_scale / self.cfg.process_scale)
         if reg.H_curr_from_prev is None or c >= 1.0:
             return reg
@@ -325,14 +425,14 @@ class MotionDetector:
         valid = cv2.erode(valid, np.ones((2 * cfg.border_px + 1, 2 * cfg.border_px + 1), np.uint8))
         diff = cv2.absdiff(curr, warped)
         _, moving = cv2.threshold(diff, cfg.diff_threshold, 255, cv2.THRESH_BINARY)
-        moving &= valid
+        cv2.bitwise_and(moving, valid, dst=moving)
         if cfg.speckle == "open":
             moving = cv2.morphologyEx(moving, cv2.MORPH_OPEN, self._k_open)
         else:
             # "neighbours": a moving pixel needs two moving neighbours; unlike an opening this keeps the
             # one-pixel crescents of a slow walker, which add up in the history and are opened there
             nb = cv2.boxFilter(moving, cv2.CV_16U, (3, 3), normalize=False)
-            moving[nb < 3 * 255] = 0
+            cv2.bitwise_and(moving, cv2.compare(nb, 3 * 255, cv2.CMP_GE), dst=moving)
         b = cfg.border_px  # the frame's own edge too: lens edge, and where a renderer or ISP extrapolates
         moving[:b] = 0
         moving[-b:] = 0
@@ -340,41 +440,62 @@ class MotionDetector:
         moving[:, -b:] = 0
         return moving
 
-    def _history(self, moving: np.ndarray, warp, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    def _history(self, moving: np.ndarray, warp, M: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Step 4: the motion history, kept registered with the camera: each pixel's time since it last
         moved, in AGE_UNIT_S steps (uint8, saturating at "long ago"), warped along with the camera.
-        Returns the pixels that moved within ``history_s`` and this frame's moving pixels."""
+        Returns the pixels that moved within ``history_s`` and this frame's moving pixels.
+
+        An age past ``history_s`` is kept as "long ago" (it only grows until the pixel moves again, and
+        then it is 0), so the map is "long ago" but where something moved lately, and only the box
+        around that is warped."""
         cfg = self.cfg
-        age = warp(self._age, cv2.INTER_NEAREST, 255)
+        h, w = moving.shape
+        age = np.full((h, w), 255, np.uint8)
+        box = self._age_box
+        roi = _warped_box(M, box, w, h) if box is not None and box[2] > 0 else None
+        if roi is not None:
+            x0, y0, x1, y1 = roi
+            age[y0:y1, x0:x1] = warp(self._age, cv2.INTER_NEAREST, 255, roi)
         age = cv2.add(age, int(min(255, max(0, round(dt_s / AGE_UNIT_S)))))
-        age[moving > 0] = 0
+        age = cv2.bitwise_and(age, cv2.bitwise_not(moving))   # 0 where it moves now
         _, recent = cv2.threshold(age, int(round(cfg.history_s / AGE_UNIT_S)), 255, cv2.THRESH_BINARY_INV)
+        self._age = cv2.bitwise_or(age, cv2.bitwise_not(recent))
+        self._age_box = cv2.boundingRect(recent)
         if cfg.speckle == "neighbours":
             recent = cv2.morphologyEx(recent, cv2.MORPH_OPEN, self._k_open)
-            moving &= recent
-        self._age = age
+            cv2.bitwise_and(moving, recent, dst=moving)
         return recent, moving
 
-    def _components(self, joined: np.ndarray) -> list[tuple[int, int, np.ndarray]]:
-        """Step 5: the connected components of the joined mask, each as (x, y, its mask in its box)."""
+    def _components(self, joined: np.ndarray, carve: np.ndarray) -> list[tuple[int, int, np.ndarray]]:
+        """Step 5: the connected components of the joined mask that can hold a blob, each as (x, y, its
+        mask in its box). A component whose area (a bound on its moving pixels) is under a crowd's and
+        that holds no carve point would give no blob: it is dropped before its mask is made."""
         h, w = joined.shape
-        if self.cfg.merge_px >= POOLED_LABEL_MIN_MERGE_PX and min(h, w) >= POOLED_LABEL_MIN_SIDE_PX:
+        pooled = self.cfg.merge_px >= POOLED_LABEL_MIN_MERGE_PX and min(h, w) >= POOLED_LABEL_MIN_SIDE_PX
+        if pooled:
             # blobs joined over >= 8 px do not need full resolution to be told apart: label a 2x2
-            # max-pooled copy (4x fewer pixels), then carry the labels back to the full mask
+            # max-pooled copy (4x fewer pixels), then carry each kept label back to the full mask
             h2, w2 = h // 2 * 2, w // 2 * 2
             small = cv2.resize(cv2.dilate(joined, np.ones((2, 2), np.uint8))[:h2, :w2], (w2 // 2, h2 // 2),
                                interpolation=cv2.INTER_NEAREST)
-            n, lab_small, stats, _ = cv2.connectedComponentsWithStats(small, connectivity=8)
-            labels = np.zeros((h, w), np.int32)
-            labels[:h2, :w2] = cv2.resize(lab_small, (w2, h2), interpolation=cv2.INTER_NEAREST)
-            labels[joined == 0] = 0
-            stats = stats * 2    # boxes in full-resolution pixels (each small pixel is 2x2)
+            n, labels, stats, _ = cv2.connectedComponentsWithStats(small, connectivity=8)
         else:
             n, labels, stats, _ = cv2.connectedComponentsWithStats(joined, connectivity=8)
+        f = 2 if pooled else 1
+        inv = 1.0 / self.cfg.process_scale
+        least = self.cfg.min_area_px / (inv * inv * f * f)   # in labelled pixels
         out = []
         for i in range(1, n):
-            x, y, bw, bh, _ = stats[i]
-            out.append((int(x), int(y), labels[y:y + bh, x:x + bw] == i))
+            xs, ys, bws, bhs, area = (int(v) for v in stats[i])
+            x, y, bw, bh = xs * f, ys * f, bws * f, bhs * f
+            if area < least and not any(x <= cx < x + bw and y <= cy < y + bh for cx, cy in carve):
+                continue
+            if pooled:
+                crop = (labels[ys:ys + bhs, xs:xs + bws] == i).view(np.uint8)
+                comp = cv2.resize(crop, (bw, bh), interpolation=cv2.INTER_NEAREST).view(bool) & (joined[y:y + bh, x:x + bw] > 0)
+            else:
+                comp = labels[y:y + bh, x:x + bw] == i
+            out.append((x, y, comp))
         return out
 
     def _measure(self, comp: np.ndarray, recent: np.ndarray, moving: np.ndarray, x: int, y: int,
@@ -392,7 +513,7 @@ class MotionDetector:
         if inside:
             # each pixel within the radius of a vehicle's point is that (nearest) vehicle's; what is
             # left is a crowd only if one group of it is crowd-sized, else the vehicles' trails
-            gy, gx = np.mgrid[y:y + bh, x:x + bw]
+            gy, gx = np.ogrid[y:y + bh, x:x + bw]
             d2 = np.stack([(gx - carve[ci, 0]) ** 2 + (gy - carve[ci, 1]) ** 2 for ci in inside])
             nearest = d2.argmin(0)
             near = d2.min(0) <= r2
@@ -408,20 +529,19 @@ class MotionDetector:
                     centre_of[len(parts) - 1] = (carve[ci, 0] - x, carve[ci, 1] - y)
         out = []
         for pi, (pm, pnow, min_area, ci) in enumerate(parts):
-            area = float(pm.sum()) * inv * inv
+            area = float(np.count_nonzero(pm)) * inv * inv
             if not min_area <= area <= cfg.max_area_px:
                 continue
             # The centre comes from this frame's moving pixels: the history's centroid would trail
             # the crowd by half the history (0.6 m at 3 m/s, 0.4 s); this lags by half a frame at most.
             if pi in centre_of:
                 cx, cy = centre_of[pi]
-            else:
-                ys, xs = np.nonzero(pnow if pnow.any() else pm)
-                cx, cy = xs.mean(), ys.mean()
-            bys, bxs = np.nonzero(pm)
+            else:   # the mean of the pixels' coordinates, as image moments (no index arrays)
+                mo = cv2.moments(np.ascontiguousarray(pnow if pnow.any() else pm).view(np.uint8), binaryImage=True)
+                cx, cy = mo["m10"] / mo["m00"], mo["m01"] / mo["m00"]
+            bx, by, bw_, bh_ = cv2.boundingRect(np.ascontiguousarray(pm).view(np.uint8))
             out.append(([(cx + x + 0.5) * inv - 0.5, (cy + y + 0.5) * inv - 0.5],
-                        [(bxs.min() + x) * inv, (bys.min() + y) * inv, (bxs.max() + x + 1) * inv, (bys.max() + y + 1) * inv],
-                        area, ci))
+                        [(bx + x) * inv, (by + y) * inv, (bx + bw_ + x) * inv, (by + bh_ + y) * inv], area, ci))
         return out
 
     def _holds_crowd(self, rest: np.ndarray, inv: float) -> bool:
@@ -443,7 +563,7 @@ class MotionDetector:
         if not self._k_splits or float(m.sum()) * inv * inv < 2 * cfg.min_area_px:
             return whole
         m8 = m.view(np.uint8) * np.uint8(255)
-        gy, gx = np.mgrid[0:bh, 0:bw]
+        gy, gx = np.ogrid[0:bh, 0:bw]
         kernels = self._k_splits
         # a vehicle is no crowd's core; with one in the blob only the finest kernel splits it: removing
         # the vehicle cuts off the walkers beyond it, which a coarser kernel would make a crowd of their own
@@ -452,8 +572,19 @@ class MotionDetector:
                 if -1 <= cx <= bw and -1 <= cy <= bh:
                     m8[(gx - cx) ** 2 + (gy - cy) ** 2 <= r2] = 0
                     kernels = self._k_splits[-1:]
+        pooled = kernels[-1].shape[0] >= POOLED_LABEL_MIN_MERGE_PX and min(bh, bw) >= POOLED_LABEL_MIN_SIDE_PX
+        if pooled:   # as for labelling (step 5): kernels of 8 px and more close a 2x2 max-pooled copy
+            h2, w2 = bh // 2 * 2, bw // 2 * 2
+            m8s = cv2.resize(cv2.dilate(m8, np.ones((2, 2), np.uint8))[:h2, :w2], (w2 // 2, h2 // 2),
+                             interpolation=cv2.INTER_NEAREST)
         for ker in kernels:
-            k, lab = cv2.connectedComponents(_close(m8, ker), connectivity=8)
+            if pooled:
+                k2 = max(3, ker.shape[0] // 2 | 1)
+                k, lab_s = cv2.connectedComponents(_close(m8s, np.ones((k2, k2), np.uint8)), connectivity=8)
+                lab = np.zeros((bh, bw), np.int32)
+                lab[:h2, :w2] = cv2.resize(lab_s, (w2, h2), interpolation=cv2.INTER_NEAREST)
+            else:
+                k, lab = cv2.connectedComponents(_close(m8, ker), connectivity=8)
             if k <= 2:
                 continue
             moved = np.bincount(lab[m8 > 0], minlength=k)[1:] * inv * inv
@@ -465,12 +596,16 @@ class MotionDetector:
         ys, xs = np.nonzero(m8)
         lm = lab[ys, xs]
         cent = np.array([[xs[lm == c].mean(), ys[lm == c].mean()] for c in cores])
-        owner = (((gx[None] - cent[:, 0, None, None]) ** 2 + (gy[None] - cent[:, 1, None, None]) ** 2)).argmin(0)
+        # each pixel of the component goes to the nearest core's centre
+        cy, cx = np.nonzero(comp)
+        owner = ((cx[None] - cent[:, 0, None]) ** 2 + (cy[None] - cent[:, 1, None]) ** 2).argmin(0)
         out = []
         for c in range(len(cores)):
-            part = comp & (owner == c)
-            py, px = np.nonzero(part)
+            mine = owner == c
+            py, px = cy[mine], cx[mine]
             if len(py):
                 y0, y1, x0, x1 = py.min(), py.max() + 1, px.min(), px.max() + 1
-                out.append((x + int(x0), y + int(y0), int(x1 - x0), int(y1 - y0), part[y0:y1, x0:x1]))
+                part = np.zeros((y1 - y0, x1 - x0), bool)
+                part[py - y0, px - x0] = True
+                out.append((x + int(x0), y + int(y0), int(x1 - x0), int(y1 - y0), part))
         return out
