@@ -8,9 +8,10 @@ assignment moving the team least among those that keep the order): a UGV is neve
 ring, so no path runs through the crowd, where a UGV's motion blob would merge with the crowd's. Every
 UGV service computes the same plan from the same fixes, so each can plan for itself without a
 coordinator. For a moving crowd the ring is oriented by its direction of travel (stations symmetric
-about it); for a still one the phase is chosen with the assignment. When a UGV's straight way to its station
-would still pass within ``clearance`` x radius of the crowd (the team bunched on one side), it goes
-round on the ring instead, in arcs of at most 60 degrees.
+about it); for a still one the phase is chosen with the assignment. When a UGV's straight way to its station,
+seen from the crowd (moving with it), would still pass within ``clearance`` x radius of the crowd (the team
+bunched on one side), it goes round on the ring instead, in arcs of at most 60 degrees that move with the
+crowd.
 """
 
 from __future__ import annotations
@@ -69,17 +70,16 @@ def plan_stations(crowd_en_m, crowd_v_m_s, ugv_en_m: dict[str, np.ndarray], now_
                 ang_of[order] = ang[ci]
                 best = (cost, ang_of)
     ang_of = best[1]
-    c_next = c + v * step_s
     k = max(int(round(horizon_s / step_s)), 1)
-    ts = now_s + step_s * np.arange(1, k + 1)
-    # (the times of detour points follow from the speeds below)
     out = {}
     for i, u in enumerate(ids):
         off = r * np.array([np.sin(ang_of[i]), np.cos(ang_of[i])])
-        wps = c + off + np.outer(ts - now_s, v)
-        around = _detour(pos[i], wps[0], c_next, r, clearance)
-        if len(around):
-            wps = np.vstack([around, wps])
+        # the way to the station is judged where the crowd is seen from (moving with it): a UGV ahead
+        # of a fast crowd is not sent round a ring that the crowd carries away from it
+        around = _detour(pos[i] - c, off, r, clearance)
+        lead = np.arange(1, len(around) + k + 1) * step_s     # each waypoint one step after the last
+        rel = np.vstack([around, np.repeat(off[None], k, 0)])
+        wps = c + rel + np.outer(lead, v)
         prev = np.vstack([pos[i], wps[:-1]])
         leg = np.sqrt(((wps - prev) ** 2).sum(1))
         speed = np.minimum(leg / step_s, max_speed_m_s)
@@ -95,13 +95,15 @@ def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
     return float(np.linalg.norm(a + t * ab - p))
 
 
-def _detour(start: np.ndarray, goal: np.ndarray, centre: np.ndarray, r: float, clearance: float) -> np.ndarray:
-    """Points on the ring from ``start``'s bearing towards ``goal``'s, the short way round, or none."""
+def _detour(start: np.ndarray, goal: np.ndarray, r: float, clearance: float) -> np.ndarray:
+    """Points on the ring (about the origin, the crowd) from ``start``'s bearing towards ``goal``'s, the
+    short way round, or none when the straight way keeps ``clearance`` x ``r`` from the crowd."""
+    centre = np.zeros(2)
     if r <= 0 or _segment_distance(centre, start, goal) >= clearance * r:
         return np.empty((0, 2))
-    a0 = np.arctan2(*(start - centre))
-    a1 = np.arctan2(*(goal - centre))
+    a0 = np.arctan2(*start)
+    a1 = np.arctan2(*goal)
     da = (a1 - a0 + np.pi) % (2 * np.pi) - np.pi
     m = int(np.ceil(abs(da) / (np.pi / 3)))
     ang = a0 + da * np.arange(0, m) / m
-    return centre + r * np.column_stack([np.sin(ang), np.cos(ang)])
+    return r * np.column_stack([np.sin(ang), np.cos(ang)])

@@ -189,3 +189,20 @@ def test_team_configs_are_the_defaults_plus_wiring():
                 mine, base = getattr(getattr(cfg, section), f.name), getattr(getattr(default, section), f.name)
                 if f.name not in WIRING[section] and not (f.name == "image_coordinates" and section == "localizer"):
                     assert mine == base or (mine != mine and base != base), (cfg.id, section, f.name)
+
+
+def test_a_ugv_ahead_of_a_fast_crowd_is_not_sent_round_a_ring_the_crowd_carries_away():
+    # paper-fig7-alt50 seed 9 (rendered): a crowd walking north-east at 3.1 m/s, a UGV 9 m ahead of it
+    # whose station is front-right. Judged in still ground coordinates, its straight way "crossed" the
+    # crowd, so it was sent outwards round the ring ahead of a crowd faster than it; it fell back onto the
+    # front-left UGV's station and two landmarks stood together (crowds 3-5 m off, radii 20-300 m).
+    v = np.array([2.2, 2.2])
+    ugvs = {"ugv1": np.array([0.0, -13.0]), "ugv2": np.array([-14.0, -7.0]), "ugv3": np.array([-9.0, 8.0]),
+            "ugv4": np.array([6.0, 7.0])}
+    plans = plan_stations([0.0, 0.0], v, ugvs, 0.0, radius_m=12.0, step_s=1.0, horizon_s=3.0)
+    station = plans["ugv4"].en_m[-1] - 3.0 * v                 # the last waypoint, 3 steps on
+    assert station[0] > 10 and abs(station[1]) < 2            # its station: east of the crowd
+    for j, wp in enumerate(plans["ugv4"].en_m):                # seen from the crowd at each waypoint's step
+        assert np.linalg.norm(wp - (j + 1) * v - station) <= np.linalg.norm(ugvs["ugv4"] - station) + 1e-9
+    stations = [p.en_m[-1] for p in plans.values()]
+    assert min(np.linalg.norm(a - b) for i, a in enumerate(stations) for b in stations[i + 1:]) > 12
