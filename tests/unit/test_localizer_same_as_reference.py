@@ -3,7 +3,8 @@ frame of many random scenes runs through the product (:mod:`uvteam.localizer`) a
 copy of the step as it was (:mod:`uvteam_ground.localize_reference`, commit 4d30179), and both must
 agree to 1e-9 m. The recorded steps (test_localizer_golden.py) are real runs but take few paths (no
 pose fallback, hold, suspect fit, labelled blobs, plans, greedy solver or color coordinates); these
-scenes take all of them."""
+scenes take all of them. (Equal means: every discrete outcome the same; values to 1e-9 m, or to 1e-10 of
+their size beyond 1 km; transforms to 1e-12 as the recorded test.)"""
 
 import numpy as np
 import pytest
@@ -20,7 +21,16 @@ from uvteam_ground.localize_reference import localizer as before
 
 CAM = PinholeCamera(1280, 720, 78.0)
 FRAME = LocalFrame(31.4850, -111.5440)
-ATOL = 1e-9
+ATOL_M = 1e-9
+FAR_M, FAR_RTOL = 1000.0, 1e-10  # a wild fit puts crowds 100 km off, near its horizon: there round-off alone
+                                 # is above 1e-9 m (before and after), so beyond 1 km the check is relative
+
+
+def _close(got, want, where) -> None:
+    got, want = np.asarray(got, float), np.asarray(want, float)
+    tol = np.where(np.abs(want) < FAR_M, ATOL_M, FAR_RTOL * np.abs(want))
+    same = (np.abs(got - want) <= tol) | (np.isnan(got) & np.isnan(want))
+    assert same.all(), (where, got[~same], want[~same])
 
 
 def _track(rng, en0, v, t_end):
@@ -104,9 +114,8 @@ def _same(a, b, where):
     assert [(c.blob_index, c.quality, c.n_outliers, c.area_px) for c in a.crowds] == \
         [(c.blob_index, c.quality, c.n_outliers, c.area_px) for c in b.crowds], where
     for x, y in zip(a.crowds, b.crowds):
-        np.testing.assert_allclose([x.east_m, x.north_m, x.radius95_m], [y.east_m, y.north_m, y.radius95_m],
-                                   rtol=0, atol=ATOL, err_msg=str(where))
-        np.testing.assert_allclose(x.footprint_en_m, y.footprint_en_m, rtol=0, atol=ATOL, err_msg=str(where))
+        _close([x.east_m, x.north_m, x.radius95_m], [y.east_m, y.north_m, y.radius95_m], where)
+        _close(x.footprint_en_m, y.footprint_en_m, where)
 
 
 def _same_state(a, b, where):
@@ -116,8 +125,8 @@ def _same_state(a, b, where):
     if a.last_fit is not None:
         np.testing.assert_allclose(a.last_fit.H_ground_from_px, b.last_fit.H_ground_from_px, rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(a.last_fit_sigma_m, b.last_fit_sigma_m, rtol=0, atol=0)
-    np.testing.assert_allclose(a.pose_bias_en_m, b.pose_bias_en_m, rtol=0, atol=1e-12)
-    assert a.pose_bias_var_m2 == pytest.approx(b.pose_bias_var_m2, abs=1e-12), where
+    np.testing.assert_allclose(a.pose_bias_en_m, b.pose_bias_en_m, rtol=1e-12, atol=1e-12)
+    assert a.pose_bias_var_m2 == pytest.approx(b.pose_bias_var_m2, rel=1e-12, abs=1e-12), where
 
 
 CONFIGS = [
@@ -184,12 +193,12 @@ def test_the_fits_are_the_fits_they_were(seed):
         assert a.quality == b.quality and (a.inliers == b.inliers).all()
         np.testing.assert_allclose(a.H_ground_from_px, b.H_ground_from_px, rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(a.H_px_from_ground, b.H_px_from_ground, rtol=1e-12, atol=1e-12)
-        np.testing.assert_allclose(a.residual_m, b.residual_m, rtol=0, atol=ATOL)
-        assert a.rms_residual_m == pytest.approx(b.rms_residual_m, abs=ATOL, nan_ok=True)
+        _close(a.residual_m, b.residual_m, seed)
+        _close(a.rms_residual_m, b.rms_residual_m, seed)
         targets = rng.uniform([0, 0], [1280, 720], (7, 2))
         sig_m = rng.uniform(0, 1, n)
         ea, ca = a.map_points_with_cov(targets, 1.5, 1.0, sig_m)
         eb, cb = b.map_points_with_cov(targets, 1.5, 1.0, sig_m)
-        np.testing.assert_allclose(ea, eb, rtol=0, atol=ATOL)
+        _close(ea, eb, seed)
         np.testing.assert_allclose(ca, cb, rtol=1e-9, atol=1e-12)
-        np.testing.assert_allclose(hom_now.radius95_m(ca), hom_before.radius95_m(cb), rtol=0, atol=ATOL)
+        _close(hom_now.radius95_m(ca), hom_before.radius95_m(cb), seed)
