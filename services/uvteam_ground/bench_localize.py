@@ -16,7 +16,8 @@ and crowd blobs scattered in the rest of the image; 30 frames a second. Before t
 over the same frames and must give the same results (to 1e-9 m): a faster step that is not the same
 step is not measured.
 
-Run on one core: ``uvteam bench localize`` pins itself; by hand,
+Medians over the rounds, of wall-clock time and of this process's CPU time (steadier when other
+processes share the core). Run on one core: ``uvteam bench localize`` pins itself; by hand,
 ``nice taskset -c 1 python -m uvteam_ground.bench_localize``.
 """
 
@@ -131,7 +132,8 @@ def _measure(n_blobs: int, rounds: int, frames_per_batch: int) -> dict:
         yard.append((f.landmarks.xy_px.copy(), en, pts.reshape(-1, 1, 2)))
     states = {"before": before.LocalizerState(), "now": now.LocalizerState()}
     steps = {"before": (before.localize_step, cfg_before), "now": (now.localize_step, cfg_now)}
-    per_step: dict[str, list[float]] = {"before": [], "now": [], "cv2": []}
+    per_step: dict[str, list[float]] = {"before": [], "now": [], "cv2": []}      # wall clock, us
+    cpu_step: dict[str, list[float]] = {"before": [], "now": [], "cv2": []}      # this process's CPU time, us
     order = ["before", "now", "cv2"]
     cycle = 0
     for r in range(rounds + 1):                       # round 0 warms up and is not counted
@@ -140,7 +142,7 @@ def _measure(n_blobs: int, rounds: int, frames_per_batch: int) -> dict:
         fr = fr[:frames_per_batch]
         for what in order[r % 3:] + order[:r % 3]:      # who goes first rotates
             gc.collect()
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             if what == "cv2":
                 for lm_px, lm_en, pts in yard[:frames_per_batch]:
                     _cv2_step(cv2, lm_px, lm_en, pts)
@@ -152,10 +154,13 @@ def _measure(n_blobs: int, rounds: int, frames_per_batch: int) -> dict:
                 states[what] = st
             if r:
                 per_step[what].append((time.perf_counter() - t0) / len(fr) * 1e6)
+                cpu_step[what].append((time.process_time() - c0) / len(fr) * 1e6)
     med = {k: statistics.median(v) for k, v in per_step.items()}
+    cpu = {k: statistics.median(v) for k, v in cpu_step.items()}
     speedup = statistics.median(b / n for b, n in zip(per_step["before"], per_step["now"]))
     vs_cv2 = statistics.median(n / c for n, c in zip(per_step["now"], per_step["cv2"]))
     return {"blobs": n_blobs, "now_us": med["now"], "before_us": med["before"], "cv2_us": med["cv2"],
+            "now_cpu_us": cpu["now"], "before_cpu_us": cpu["before"], "cv2_cpu_us": cpu["cv2"],
             "now_q10_us": float(np.quantile(per_step["now"], 0.1)), "now_q90_us": float(np.quantile(per_step["now"], 0.9)),
             "speedup": speedup, "now_over_cv2": vs_cv2, "crowds_compared": n_cmp, "max_diff_m": worst}
 
@@ -182,6 +187,8 @@ def bench_localize(rounds: int = 30, big_rounds: int = 5, blobs: tuple[int, ...]
         out[n] = r
         print(f"  {n:6d} blobs: now {r['now_us']:9.1f} us/step (10-90 %: {r['now_q10_us']:.1f}-{r['now_q90_us']:.1f}), "
               f"before {r['before_us']:9.1f} us, cv2 findHomography+perspectiveTransform {r['cv2_us']:8.1f} us")
+        print(f"  {'':6s}        CPU time: now {r['now_cpu_us']:.1f} us, before {r['before_cpu_us']:.1f} us, "
+              f"cv2 {r['cv2_cpu_us']:.1f} us")
         print(f"  {'':6s}        before/now {r['speedup']:.2f}x, now/cv2 {r['now_over_cv2']:.2f}x; same results on "
               f"{r['crowds_compared']} crowds (largest difference {r['max_diff_m']:.1e} m)")
     return out
