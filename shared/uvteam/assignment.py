@@ -41,7 +41,7 @@ class Assignment:
 
     @property
     def blob_of_landmark(self) -> dict[int, int]:
-        return {int(i): int(j) for i, j in self.pairs}
+        return dict(self.pairs.tolist())
 
     @property
     def target_blobs(self) -> np.ndarray:
@@ -57,13 +57,16 @@ class Assignment:
 def distance_matrix(landmarks_xy_px, blobs_xy_px) -> np.ndarray:
     a = np.asarray(landmarks_xy_px, float).reshape(-1, 2)
     b = np.asarray(blobs_xy_px, float).reshape(-1, 2)
-    return np.sqrt(((a[:, None, :] - b[None, :, :]) ** 2).sum(-1))
+    dx = a[:, 0, None] - b[None, :, 0]
+    dy = a[:, 1, None] - b[None, :, 1]
+    return np.sqrt(dx * dx + dy * dy)
 
 
-def _result(pairs, d: np.ndarray, gate_px: float) -> Assignment:
+def _result(pairs, d: np.ndarray, gate_px: float, feasible: np.ndarray | None = None) -> Assignment:
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
-    with np.errstate(invalid="ignore"):
-        gated = (d <= gate_px).any(axis=0) if d.size else np.zeros(d.shape[1], bool)
+    if feasible is None:   # NaN distances compare False: never gated
+        feasible = d <= gate_px
+    gated = feasible.any(axis=0) if d.size else np.zeros(d.shape[1], bool)
     return Assignment(pairs, d.shape[0], d.shape[1], gated)
 
 
@@ -74,12 +77,12 @@ def assign_optimal(landmarks_xy_px, blobs_xy_px, gate_px: float) -> Assignment:
     d = distance_matrix(landmarks_xy_px, blobs_xy_px)
     if d.size == 0:
         return _result([], d, gate_px)
-    feasible = np.isfinite(d) & (d <= gate_px)
+    feasible = d <= gate_px                # NaN and inf compare False
     big = gate_px * (min(d.shape) + 1)  # larger than any feasible matching's total
     cost = np.where(feasible, d, big)
     rows, cols = linear_sum_assignment(cost)
     ok = feasible[rows, cols]
-    return _result(np.stack([rows[ok], cols[ok]], axis=1), d, gate_px)
+    return _result(np.array([rows[ok], cols[ok]]).T, d, gate_px, feasible)
 
 
 def assign_greedy(landmarks_xy_px, blobs_xy_px, gate_px: float) -> Assignment:

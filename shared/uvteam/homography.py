@@ -3,7 +3,12 @@
 The paper's model: ground = H(image) with 8 unknowns (h33 = 1), one pair of linear equations per
 landmark correspondence; exact for n = 4, linear least squares for n > 4. Here the system is solved
 in Hartley-normalised coordinates (centroid at 0, mean distance sqrt 2) with an SVD-based solver
-(numpy.linalg.lstsq), never an explicit inverse of A^T A.
+(numpy.linalg.svd), never an explicit inverse of A^T A.
+
+Speed: a fit is a handful of landmarks, where each numpy call costs more than the arithmetic it does
+(about 1-2 us against 0.05 us for a float operation), so the per-landmark work (checks, normalisation,
+design, residuals) is done in plain floats, and arrays are kept for what is linear algebra or scales
+with the number of targets (the SVD, covariance propagation, mapping blobs).
 
 Degenerate input never produces a matrix: :func:`fit_homography` returns a :class:`FitFailure` that
 names the reason (too few points, non-finite values, duplicates, collinear, ill-conditioned).
@@ -22,7 +27,8 @@ from __future__ import annotations
 import enum
 import itertools
 from dataclasses import dataclass, field
-from math import erf, sqrt
+from math import erf, inf, isfinite, nan, sqrt
+from typing import NamedTuple
 
 import numpy as np
 
@@ -30,7 +36,7 @@ from .vocab import FitQuality
 
 __all__ = [
     "FitQuality", "FailureReason", "FitFailure", "Homography", "fit_homography",
-    "fit_homography_robust", "radius95_m",
+    "fit_homography_robust", "radius95_m", "map_few",
 ]
 
 
@@ -75,39 +81,97 @@ def _design(p: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return A, b
 
 
+def _hartley(pts: list[list[float]]) -> tuple[float, float, float]:
+    """Hartley normalisation of plain points: (scale, x offset, y offset) such that x * scale + offset
+    puts the centroid at 0 and the mean distance from it at sqrt 2 (as :func:`_normaliser`)."""
+    n = len(pts)
+    sx = sy = 0.0
+    for x, y in pts:
+        sx += x
+        sy += y
+    cx, cy = sx / n, sy / n
+    d = 0.0
+    for x, y in pts:
+        d += sqrt((x - cx) * (x - cx) + (y - cy) * (y - cy))
+    d /= n
+    s = sqrt(2.0) / d if d > 0 else 1.0
+    return s, -s * cx, -s * cy
+
+
+def map_few(H: np.ndarray, pts) -> list[tuple[float, float]]:
+    """A few (x, y) points through the 3 x 3 homography ``H`` in plain floats (NaN beyond the horizon,
+    w <= 1e-12, as :meth:`Homography.px_to_ground`): below about ten points this costs less than arrays."""
+    (a, b, c), (d, e, f), (g, h, k) = H.tolist()
+    out = []
+    for x, y in pts:
+        w = g * x + h * y + k
+        out.append(((a * x + b * y + c) / w, (d * x + e * y + f) / w) if w > 1e-12 else (nan, nan))
+    return out
+
+
 PRIOR_SIGMAS = 4.0      # a landmark this many sigmas from its prior makes the fit look for one that lies
 _COLLINEAR_TOL = 1e-3   # smallest/largest singular value of the centred, normalised points
 _COND_MAX = 1e7         # condition number of the normalised design matrix
 
 
-def _check(xy_px: np.ndarray, en_m: np.ndarray, min_sep_px: float, min_sep_m: float) -> FitFailure | None:
-    if xy_px.ndim != 2 or xy_px.shape[1] != 2 or en_m.shape != xy_px.shape:
-        return FitFailure(FailureReason.SHAPE, f"need (n, 2) and (n, 2), got {xy_px.shape} and {en_m.shape}")
-    n = len(xy_px)
-    if n < 4:
-        return FitFailure(FailureReason.TOO_FEW, f"need at least 4 landmarks, got {n}")
-    if not (np.isfinite(xy_px).all() and np.isfinite(en_m).all()):
+def _landmarks(p_all: np.ndarray, g_all: np.ndarray, mask: np.ndarray | None) -> tuple[list, list] | FitFailure:
+    """The landmarks ``mask`` selects (all when None) as plain [x, y] lists, image and ground, or why
+    they cannot be fitted (shape, count, a non-finite value)."""
+    p, g = (p_all, g_all) if mask is None else \
+        (p_all[mask] if p_all.ndim == 2 else p_all, g_all[mask] if g_all.ndim == 2 else g_all)
+    if p.ndim != 2 or p.shape[1] != 2 or g.shape != p.shape:
+        return FitFailure(FailureReason.SHAPE, f"need (n, 2) and (n, 2), got {p.shape} and {g.shape}")
+    if len(p) < 4:
+        return FitFailure(FailureReason.TOO_FEW, f"need at least 4 landmarks, got {len(p)}")
+    img, gnd = p.tolist(), g.tolist()
+    if not all(isfinite(v) for pts in (img, gnd) for pt in pts for v in pt):
         return FitFailure(FailureReason.NON_FINITE, "a landmark coordinate is NaN or infinite")
-    iu = np.triu_indices(n, 1)
-    for pts, tol, what in ((xy_px, min_sep_px, "image"), (en_m, min_sep_m, "ground")):
-        diff = pts[iu[0]] - pts[iu[1]]
-        d2 = diff[:, 0] * diff[:, 0] + diff[:, 1] * diff[:, 1]
-        k = int(d2.argmin())
-        if d2[k] <= tol * tol:
-            return FitFailure(FailureReason.DUPLICATE,
-                              f"landmarks {iu[0][k]} and {iu[1][k]} coincide in the {what} ({sqrt(d2[k]):.3g} apart)")
-    for pts, what in ((xy_px, "image"), (en_m, "ground")):
-        c = pts - pts.mean(axis=0)
-        S = c.T @ c
-        sxx, syy, sxy = S[0, 0], S[1, 1], S[0, 1]
-        tr, disc = 0.5 * (sxx + syy), sqrt(max((0.5 * (sxx - syy)) ** 2 + sxy * sxy, 0.0))
+    return img, gnd
+
+
+def _closest_pair(pts: list) -> tuple[float, int, int]:
+    """(squared distance, i, j) of the closest two points, the first such pair in (i, j) order."""
+    best, bi, bj = inf, 0, 0
+    for i in range(len(pts)):
+        xi, yi = pts[i]
+        for j in range(i + 1, len(pts)):
+            xj, yj = pts[j]
+            d2 = (xi - xj) * (xi - xj) + (yi - yj) * (yi - yj)
+            if d2 < best:
+                best, bi, bj = d2, i, j
+    return best, bi, bj
+
+
+def _check_geometry(img: list, gnd: list, min_sep_px: float, min_sep_m: float) -> FitFailure | None:
+    """Duplicate landmarks, then collinear ones, in the image then on the ground (plain [x, y] lists:
+    a handful of points costs less in floats than in arrays)."""
+    for pts, tol, what in ((img, min_sep_px, "image"), (gnd, min_sep_m, "ground")):
+        d2, i, j = _closest_pair(pts)
+        if d2 <= tol * tol:
+            return FitFailure(FailureReason.DUPLICATE, f"landmarks {i} and {j} coincide in the {what} ({sqrt(d2):.3g} apart)")
+    n = len(img)
+    for pts, what in ((img, "image"), (gnd, "ground")):
+        mx = my = 0.0
+        for x, y in pts:
+            mx += x
+            my += y
+        mx, my = mx / n, my / n
+        sxx = syy = sxy = 0.0
+        for x, y in pts:
+            sxx += (x - mx) * (x - mx)
+            syy += (y - my) * (y - my)
+            sxy += (x - mx) * (y - my)
+        half = 0.5 * (sxx - syy)          # (products, not ** 2: plain floats raise on overflow)
+        tr, disc = 0.5 * (sxx + syy), sqrt(max(half * half + sxy * sxy, 0.0))
         if tr - disc <= (_COLLINEAR_TOL ** 2) * (tr + disc):  # singular values squared
             return FitFailure(FailureReason.COLLINEAR, f"landmarks are collinear in the {what}")
         if n == 4:  # with four points, any three on a line make the system singular
             for tri in itertools.combinations(range(4), 3):
-                q = pts[list(tri)]
-                area2 = abs((q[1, 0] - q[0, 0]) * (q[2, 1] - q[0, 1]) - (q[1, 1] - q[0, 1]) * (q[2, 0] - q[0, 0]))
-                scale2 = max(((q - q.mean(0)) ** 2).sum(1).max(), 1e-300)
+                (x0, y0), (x1, y1), (x2, y2) = (pts[i] for i in tri)
+                area2 = abs((x1 - x0) * (y2 - y0) - (y1 - y0) * (x2 - x0))
+                mx, my = (x0 + x1 + x2) / 3, (y0 + y1 + y2) / 3
+                scale2 = max(max((x - mx) * (x - mx) + (y - my) * (y - my) for x, y in ((x0, y0), (x1, y1), (x2, y2))),
+                             1e-300)
                 if area2 <= 2 * _COLLINEAR_TOL * scale2:
                     return FitFailure(FailureReason.COLLINEAR, f"landmarks {tri} are collinear in the {what}")
     return None
@@ -158,41 +222,53 @@ class Homography:
 
         sigma_landmark_px / sigma_landmark_m: scalar or (n,) 1-sigma per axis for every landmark given
         to the fit (image noise and GNSS noise); outliers' entries are ignored; sigma_target_px: 1-sigma per axis of each target's pixel centre.
+
+        In normalised coordinates a target's pixel is a = (u, v, 1), q = Hn a, its ground point
+        (X, Y) = (q1, q2) / w with w = q3, and to first order it moves by G (dHn a + Hn[:, :2] da) / w with
+        G = [[1, 0, -X], [0, 1, -Y]]. Its covariance is therefore G Q G^T / w^2 with the 3 x 3
+        Q = cov(dHn a) + st^2 Hn[:, :2] Hn[:, :2]^T, where cov(dHn a)_ij = a^T C_ij a over the 3 x 3 blocks
+        C_ij of the parameters' covariance (h33 = 1 has none). As a3 = 1, the target's own term joins the
+        blocks' corners, and one (N, 9) @ (9, 9) product gives every target's Q.
         """
         xy = np.atleast_2d(np.asarray(xy_px, float))
-        n_all = len(self.inliers)
-        sp = np.broadcast_to(np.asarray(sigma_landmark_px, float), (n_all,))[self.inliers] * self._sp
-        sg = np.broadcast_to(np.asarray(sigma_landmark_m, float), (n_all,))[self.inliers] * self._sg
-        m = len(sp)
-        var_z = np.empty(4 * m)
-        var_z[0::4], var_z[1::4], var_z[2::4], var_z[3::4] = sp ** 2, sp ** 2, sg ** 2, sg ** 2
-        J_h = -self._A_pinv @ self._dr_dz                  # (8, 4m)
-        cov_h = (J_h * var_z) @ J_h.T                      # (8, 8) normalised
-        h = self._h_n
-        # targets in normalised image coordinates
-        u = xy[:, 0] * self._sp + self._Tp[0, 2]
-        v = xy[:, 1] * self._sp + self._Tp[1, 2]
-        w = h[6] * u + h[7] * v + 1.0
-        X = (h[0] * u + h[1] * v + h[2]) / w
-        Y = (h[3] * u + h[4] * v + h[5]) / w
         n = len(xy)
-        Jf = np.zeros((n, 2, 8))
-        Jf[:, 0, 0], Jf[:, 0, 1], Jf[:, 0, 2] = u, v, 1.0
-        Jf[:, 0, 6], Jf[:, 0, 7] = -X * u, -X * v
-        Jf[:, 1, 3], Jf[:, 1, 4], Jf[:, 1, 5] = u, v, 1.0
-        Jf[:, 1, 6], Jf[:, 1, 7] = -Y * u, -Y * v
-        Jf /= w[:, None, None]
-        Jp = np.empty((n, 2, 2))
-        Jp[:, 0, 0], Jp[:, 0, 1] = (h[0] - X * h[6]) / w, (h[1] - X * h[7]) / w
-        Jp[:, 1, 0], Jp[:, 1, 1] = (h[3] - Y * h[6]) / w, (h[4] - Y * h[7]) / w
+        Hn = np.append(self._h_n, 1.0).reshape(3, 3)
+        C = np.zeros((9, 9))
+        C[:8, :8] = self._parameter_cov(sigma_landmark_px, sigma_landmark_m)
+        Cq = C.reshape(3, 3, 3, 3).transpose(1, 3, 0, 2).reshape(9, 9)   # rows a_k a_l, columns Q_ij
         st = sigma_target_px * self._sp
-        cov_n = Jf @ cov_h @ Jf.transpose(0, 2, 1) + (st ** 2) * (Jp @ Jp.transpose(0, 2, 1))
-        cov_m = cov_n / (self._sg ** 2)
-        en = np.stack([X, Y], axis=1) / self._sg + self._Tg_inv[:2, 2]
-        bad = ~(w > 1e-12)
-        en[bad] = np.nan
-        cov_m[bad] = np.nan
+        Cq[8] += (st * st) * (Hn[:, :2] @ Hn[:, :2].T).ravel()
+        a = np.ones((n, 3))                                               # targets, normalised, homogeneous
+        a[:, :2] = xy * self._sp + self._Tp[:2, 2]
+        q = a @ Hn.T
+        w = q[:, 2:]
+        XY = q[:, :2] / w
+        Q = ((a[:, :, None] * a[:, None, :]).reshape(n, 9) @ Cq).reshape(n, 3, 3)
+        GQ = Q[:, :2] - XY[:, :, None] * Q[:, 2:]                         # G Q
+        cov_m = (GQ[:, :, :2] - GQ[:, :, 2:] * XY[:, None, :]) / ((w * self._sg) ** 2)[:, :, None]  # G Q G^T / w^2, m^2
+        en = XY / self._sg + self._Tg_inv[:2, 2]
+        if n and not w.min() > 1e-12:                                     # beyond the horizon: no point
+            bad = ~(w[:, 0] > 1e-12)
+            en[bad] = np.nan
+            cov_m[bad] = np.nan
         return en, cov_m
+
+    def _parameter_cov(self, sigma_landmark_px, sigma_landmark_m) -> np.ndarray:
+        """(8, 8) covariance of the normalised parameters from the inliers' pixel and ground noise, through
+        the least-squares solution (Gauss-Newton: dh = -A^+ (dr/dz) dz)."""
+        sp = self._per_inlier(sigma_landmark_px, self._sp)
+        sg = self._per_inlier(sigma_landmark_m, self._sg)
+        var_z = np.array([v for p, g in zip(sp, sg) for v in (p * p, p * p, g * g, g * g)])  # x, y, X, Y per landmark
+        J_h = self._A_pinv @ self._dr_dz                   # (8, 4m), less its sign: J var J^T is the same
+        return (J_h * var_z) @ J_h.T
+
+    def _per_inlier(self, v, scale: float) -> list[float]:
+        """A scalar or a (n,) value per landmark given to the fit -> m plain floats over the inliers, scaled."""
+        a = np.asarray(v, float)
+        if a.ndim == 0:
+            return [float(a) * scale] * (self._A_pinv.shape[1] // 2)
+        a = a if a.shape == self.inliers.shape else np.broadcast_to(a, self.inliers.shape)
+        return [x * scale for x in a[self.inliers].tolist()]
 
 
 def _apply(H: np.ndarray, pts) -> np.ndarray:
@@ -200,7 +276,65 @@ def _apply(H: np.ndarray, pts) -> np.ndarray:
     q = p @ H[:, :2].T + H[:, 2]                  # (N, 3) homogeneous
     w = q[:, 2:]
     ok = w > 1e-12                                # in front of the camera (or of the ground plane)
+    if ok.all():
+        return q[:, :2] / w
     return np.divide(q[:, :2], w, out=np.full((len(p), 2), np.nan), where=ok)
+
+
+class _Solved(NamedTuple):
+    """A transform solved from landmarks, with what covariance propagation needs."""
+
+    H: np.ndarray           # ground from pixels, H33 = 1
+    h: np.ndarray           # (8,) normalised parameters
+    A_pinv: np.ndarray      # (8, 2m) pseudo-inverse of the normalised design matrix
+    pn: list                # m normalised pixels (u, v)
+    gn: list                # m normalised ground points (X, Y)
+    sp: float
+    sg: float
+    Tp: np.ndarray
+    Tg_inv: np.ndarray
+
+
+def _solve(img: list, gnd: list) -> _Solved | FitFailure:
+    """Normalise the landmarks, solve A h = b and de-normalise: H = Tg^-1 Hn Tp."""
+    sp, opx, opy = _hartley(img)
+    sg, ogx, ogy = _hartley(gnd)
+    pn = [(x * sp + opx, y * sp + opy) for x, y in img]
+    gn = [(x * sg + ogx, y * sg + ogy) for x, y in gnd]
+    design, b = [], []
+    for (x, y), (X, Y) in zip(pn, gn):        # the east and the north equation of each landmark
+        design += (x, y, 1.0, 0.0, 0.0, 0.0, -X * x, -X * y, 0.0, 0.0, 0.0, x, y, 1.0, -Y * x, -Y * y)
+        b += (X, Y)
+    A = np.array(design).reshape(-1, 8)
+    # One thin SVD gives the condition number, the solution and the pseudo-inverse.
+    U, sv, Vt = np.linalg.svd(A, full_matrices=False)
+    if sv[-1] <= sv[0] / _COND_MAX:
+        return FitFailure(FailureReason.ILL_CONDITIONED, f"condition number {sv[0] / max(sv[-1], 1e-300):.3g}")
+    A_pinv = (Vt.T / sv) @ U.T
+    h_n = A_pinv @ np.array(b)
+    h = h_n.tolist()
+    Hn = (h[0:3], h[3:6], (h[6], h[7], 1.0))
+    # Hn Tp with Tp = [[sp, 0, opx], [0, sp, opy], [0, 0, 1]], then Tg^-1 = [[1/sg, 0, tx], [0, 1/sg, ty], [0, 0, 1]]
+    M = [(r0 * sp, r1 * sp, r0 * opx + r1 * opy + r2) for r0, r1, r2 in Hn]
+    tx, ty = -ogx / sg, -ogy / sg
+    H = [[M[0][c] / sg + tx * M[2][c] for c in range(3)], [M[1][c] / sg + ty * M[2][c] for c in range(3)], list(M[2])]
+    h22 = H[2][2]
+    if not all(isfinite(v) for row in H for v in row) or abs(h22) < 1e-300:
+        return FitFailure(FailureReason.ILL_CONDITIONED, "the solved transform is not finite")
+    Tp = np.array([[sp, 0.0, opx], [0.0, sp, opy], [0.0, 0.0, 1.0]])
+    Tg_inv = np.array([[1 / sg, 0, tx], [0, 1 / sg, ty], [0, 0, 1.0]])
+    return _Solved(np.array([[v / h22 for v in row] for row in H]), h_n, A_pinv, pn, gn, sp, sg, Tp, Tg_inv)
+
+
+_DR_INDEX: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _dr_index(m: int) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns of the six entries per landmark of the residual Jacobian (fit_homography)."""
+    if m not in _DR_INDEX:
+        i = np.repeat(np.arange(m), 6)
+        _DR_INDEX[m] = (2 * i + np.tile([0, 0, 0, 1, 1, 1], m), 4 * i + np.tile([0, 1, 2, 0, 1, 3], m))
+    return _DR_INDEX[m]
 
 
 def fit_homography(xy_px, en_m, *, min_sep_px: float = 0.5, min_sep_m: float = 0.05,
@@ -208,45 +342,73 @@ def fit_homography(xy_px, en_m, *, min_sep_px: float = 0.5, min_sep_m: float = 0
     """Fit ground = H(image) from n >= 4 correspondences: exact for 4, least squares for more."""
     p_all = np.asarray(xy_px, float)
     g_all = np.asarray(en_m, float)
-    mask = np.ones(len(p_all), bool) if inliers is None else np.asarray(inliers, bool)
-    p, g = p_all[mask] if p_all.ndim == 2 else p_all, g_all[mask] if g_all.ndim == 2 else g_all
-    bad = _check(p, g, min_sep_px, min_sep_m)
+    mask = None if inliers is None else np.asarray(inliers, bool)
+    picked = _landmarks(p_all, g_all, mask)
+    if isinstance(picked, FitFailure):
+        return picked
+    bad = _check_geometry(*picked, min_sep_px, min_sep_m)
     if bad is not None:
         return bad
-    _, sp, Tp = _normaliser(p)
-    _, sg, Tg = _normaliser(g)
-    pn = p * sp + Tp[:2, 2]
-    gn = g * sg + Tg[:2, 2]
-    A, b = _design(pn, gn)
-    # One thin SVD gives the condition number, the solution and the pseudo-inverse.
+    s = _solve(*picked)
+    if isinstance(s, FitFailure):
+        return s
+    h0, h1, h2, h3, h4, h5, h6, h7 = s.h.tolist()
+    # residual Jacobian wrt z = (x, y, X, Y) per landmark, block diagonal (Gauss-Newton): landmark i's
+    # rows 2i, 2i + 1 and columns 4i .. 4i + 3 hold [[h0 - X h6, h1 - X h7, -w, 0], [h3 - Y h6, h4 - Y h7, 0, -w]]
+    m = len(s.pn)
+    entries = []
+    for (x, y), (X, Y) in zip(s.pn, s.gn):
+        w = h6 * x + h7 * y + 1.0
+        entries += (h0 - X * h6, h1 - X * h7, -w, h3 - Y * h6, h4 - Y * h7, -w)
+    dr = np.zeros((2 * m, 4 * m))
+    dr[_dr_index(m)] = entries
+    # every landmark's distance from where its pixel maps, outliers too (beyond the horizon: NaN)
+    img, gnd = picked if mask is None else (p_all.tolist(), g_all.tolist())
+    res = [sqrt((e - X) * (e - X) + (n - Y) * (n - Y)) for (e, n), (X, Y) in zip(map_few(s.H, img), gnd)]
+    inl = np.ones(len(res), bool) if mask is None else mask.copy()
+    rms = 0.0 if m == 4 else sqrt(sum(r * r for r, i in zip(res, inl.tolist()) if i) / m)
+    q = quality or (FitQuality.EXACT if m == 4 else FitQuality.LEAST_SQUARES)
+    return Homography(s.H, _inverse_scaled(s.H), q, inl, rms, np.array(res), s.h, s.A_pinv, dr, s.Tp, s.sp, s.sg,
+                      s.Tg_inv)
+
+
+def _inverse_scaled(H: np.ndarray) -> np.ndarray:
+    """inv(H) scaled by |its H22| only: inv(H) [g; 1] = [p; 1] / w(p), so w > 0 marks points in front.
+    For a 3 x 3 that is sign(det H) adj(H) / |adj(H)22| (the determinant cancels)."""
+    (a, b, c), (d, e, f), (g, h, k) = H.tolist()
+    adj = ((e * k - f * h, c * h - b * k, b * f - c * e),
+           (f * g - d * k, a * k - c * g, c * d - a * f),
+           (d * h - e * g, b * g - a * h, a * e - b * d))
+    det = a * adj[0][0] + b * adj[1][0] + c * adj[2][0]
+    if det == 0 or adj[2][2] == 0 or not isfinite(det):
+        Hinv = np.linalg.inv(H)                     # singular: numpy says so
+        return Hinv / abs(Hinv[2, 2])
+    scale = (1.0 if det > 0 else -1.0) / abs(adj[2][2])
+    return np.array([[v * scale for v in row] for row in adj])
+
+
+def _hypothesis_residuals(p: np.ndarray, g: np.ndarray, sel: np.ndarray, min_sep_px: float,
+                          min_sep_m: float) -> np.ndarray | None:
+    """(n,) distance of every landmark from where the exact fit of the ``sel`` four maps it, or None when
+    those four cannot be fitted. Computed exactly as the search always did (numpy, SVD): when consensus
+    sets tie, round-off in these residuals picks one (fit_homography_robust), and other arithmetic's
+    round-off would pick another."""
+    picked = _landmarks(p, g, sel)
+    if isinstance(picked, FitFailure) or _check_geometry(*picked, min_sep_px, min_sep_m) is not None:
+        return None
+    _, sp, Tp = _normaliser(p[sel])
+    _, sg, Tg = _normaliser(g[sel])
+    A, b = _design(p[sel] * sp + Tp[:2, 2], g[sel] * sg + Tg[:2, 2])
     U, sv, Vt = np.linalg.svd(A, full_matrices=False)
     if sv[-1] <= sv[0] / _COND_MAX:
-        return FitFailure(FailureReason.ILL_CONDITIONED, f"condition number {sv[0] / max(sv[-1], 1e-300):.3g}")
-    A_pinv = (Vt.T / sv) @ U.T
-    h = A_pinv @ b
-    Hn = np.append(h, 1.0).reshape(3, 3)
+        return None
+    h = ((Vt.T / sv) @ U.T) @ b
     Tg_inv = np.array([[1 / sg, 0, -Tg[0, 2] / sg], [0, 1 / sg, -Tg[1, 2] / sg], [0, 0, 1.0]])
-    H = Tg_inv @ Hn @ Tp
+    H = Tg_inv @ np.append(h, 1.0).reshape(3, 3) @ Tp
     if not np.isfinite(H).all() or abs(H[2, 2]) < 1e-300:
-        return FitFailure(FailureReason.ILL_CONDITIONED, "the solved transform is not finite")
-    H = H / H[2, 2]
-    # residual Jacobian wrt z = (x, y, X, Y) per landmark, block diagonal (Gauss-Newton)
-    m = len(pn)
-    x, y, X, Y = pn[:, 0], pn[:, 1], gn[:, 0], gn[:, 1]
-    w = h[6] * x + h[7] * y + 1.0
-    dr = np.zeros((2 * m, 4 * m))
-    r0, r1 = np.arange(m) * 2, np.arange(m) * 2 + 1
-    c = np.arange(m) * 4
-    dr[r0, c], dr[r0, c + 1], dr[r0, c + 2] = h[0] - X * h[6], h[1] - X * h[7], -w
-    dr[r1, c], dr[r1, c + 1], dr[r1, c + 3] = h[3] - Y * h[6], h[4] - Y * h[7], -w
-    resid = _apply(H, p_all) - g_all
-    res_m = np.sqrt(resid[:, 0] ** 2 + resid[:, 1] ** 2)
-    rms = float(np.sqrt((res_m[mask] ** 2).mean()))
-    q = quality or (FitQuality.EXACT if m == 4 else FitQuality.LEAST_SQUARES)
-    # inverse scaled by |H22| only: inv(H) [g; 1] = [p; 1] / w(p), so w > 0 marks points in front
-    Hinv = np.linalg.inv(H)
-    Hinv /= abs(Hinv[2, 2])
-    return Homography(H, Hinv, q, mask.copy(), rms if m > 4 else 0.0, res_m, h, A_pinv, dr, Tp, sp, sg, Tg_inv)
+        return None
+    resid = _apply(H / H[2, 2], p) - g
+    return np.sqrt(resid[:, 0] ** 2 + resid[:, 1] ** 2)
 
 
 def fit_homography_robust(xy_px, en_m, *, threshold_m: float, min_sep_px: float = 0.5, min_sep_m: float = 0.05,
@@ -294,10 +456,9 @@ def fit_homography_robust(xy_px, en_m, *, threshold_m: float, min_sep_px: float 
         for quad in itertools.combinations(range(n), 4):
             sel = np.zeros(n, bool)
             sel[list(quad)] = True
-            hyp = fit_homography(p, g, inliers=sel, min_sep_px=min_sep_px, min_sep_m=min_sep_m)
-            if not hyp:
+            err = _hypothesis_residuals(p, g, sel, min_sep_px, min_sep_m)
+            if err is None:
                 continue
-            err = hyp.residual_m
             inl = err <= threshold_m
             score = float(np.where(inl, err, threshold_m).sum())
             # fewest outliers first; then the set the prior agrees with, else the smallest residuals
@@ -354,7 +515,7 @@ def radius95_m(cov_m2) -> np.ndarray:
         _R95_GRID = np.array([_r95(k) for k in _K_GRID])
     cov = np.asarray(cov_m2, float)
     a, b, d = cov[..., 0, 0], 0.5 * (cov[..., 0, 1] + cov[..., 1, 0]), cov[..., 1, 1]
-    tr, disc = 0.5 * (a + d), np.sqrt(np.maximum((0.5 * (a - d)) ** 2 + b * b, 0.0))
+    tr, disc = 0.5 * (a + d), np.sqrt((0.5 * (a - d)) ** 2 + b * b)
     lmax, lmin = tr + disc, np.maximum(tr - disc, 0.0)
     k = np.sqrt(np.divide(lmin, lmax, out=np.ones_like(lmax), where=lmax > 0))
     return np.sqrt(lmax) * np.interp(k, _K_GRID, _R95_GRID)

@@ -36,15 +36,17 @@ The pixel noise the radius propagates is what the detector declares with its det
 
 from __future__ import annotations
 
+from bisect import bisect_left
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from math import hypot, inf, isfinite, nan, sqrt
 
 import numpy as np
 
-from .assignment import assign_greedy, assign_optimal
+from .assignment import assign_greedy, assign_optimal, distance_matrix
 from .blobs import Blobs, Landmarks
 from .geo import LocalFrame
-from .homography import Homography, fit_homography_robust, radius95_m
+from .homography import Homography, fit_homography_robust, map_few, radius95_m
 from .pose import PosePrior
 from .vocab import IMAGE_COORDINATES, SOLVERS, FitQuality, check_choice
 
@@ -262,20 +264,33 @@ class StepResult:
     failure: str | None = None
 
 
-def _interp_path(stamps: np.ndarray, en: np.ndarray, t: float) -> np.ndarray:
-    i = int(np.searchsorted(stamps, t))
+def _interp_path(stamps: np.ndarray, en: np.ndarray, t: float, i: int | None = None) -> np.ndarray:
+    """The path's point at ``t``: linear between the stamps around it, its first or last point beyond them
+    (``i``: where ``t`` sorts into ``stamps``, when known). Two points need no array arithmetic: plain
+    floats, the same bits."""
+    if i is None:
+        i = int(stamps.searchsorted(t))
     if i <= 0:
         return en[0].copy()
     if i >= len(stamps):
         return en[-1].copy()
-    t0, t1 = stamps[i - 1], stamps[i]
+    (t0, t1), ((e0, n0), (e1, n1)) = stamps[i - 1:i + 1].tolist(), en[i - 1:i + 1].tolist()
     a = (t - t0) / (t1 - t0) if t1 > t0 else 1.0
-    return en[i - 1] + a * (en[i] - en[i - 1])
+    return np.array([e0 + a * (e1 - e0), n0 + a * (n1 - n0)])
 
 
-def _extrapolate_s(track: UgvTrack, cfg: LocalizerConfig) -> float:
-    fs = track.fix_stamp_s
-    interval = float(np.median(np.diff(fs[-8:]))) if len(fs) >= 2 else 0.0
+def _median_interval_s(stamps: list[float]) -> float:
+    """The median interval between consecutive stamps (0 with fewer than 2): np.median's value."""
+    if len(stamps) < 2:
+        return 0.0
+    d = sorted([b - a for a, b in zip(stamps, stamps[1:])])
+    k = len(d) // 2
+    return d[k] if len(d) % 2 else (d[k - 1] + d[k]) / 2
+
+
+def _extrapolate_s(track: UgvTrack, cfg: LocalizerConfig, newest: list[float] | None = None) -> float:
+    """How long past its newest fix a UGV's position is extrapolated (``newest``: its newest 8 stamps)."""
+    interval = _median_interval_s(track.fix_stamp_s[-8:].tolist() if newest is None else newest)
     return max(cfg.fix_extrapolate_s,
                cfg.extrapolate_fix_intervals * interval + min(track.fix_latency_s, cfg.max_fix_latency_s))
 
@@ -284,13 +299,18 @@ def ugv_position_at(track: UgvTrack, t_s: float, cfg: LocalizerConfig) -> UgvPos
     """A UGV's position at time t_s, or None when it is not known well enough (phase 1)."""
     fs = track.fix_stamp_s
     if len(fs):
-        last = fs[-1]
-        reach = _extrapolate_s(track, cfg)
-        if fs[0] - reach <= t_s <= last:
-            i = int(np.searchsorted(fs, t_s))
-            j = max(i - 1, 0)
-            sig = float(max(track.fix_sigma_m[min(i, len(fs) - 1)], track.fix_sigma_m[j]))
-            return UgvPosition(_interp_path(fs, track.fix_en_m, t_s), max(sig, cfg.min_sigma_m), "fix")
+        newest = fs[-8:].tolist()
+        last = newest[-1]
+        reach = _extrapolate_s(track, cfg, newest)
+        if newest[0] < t_s <= last and reach >= 0:   # the common case: within the newest fixes
+            i = len(fs) - len(newest) + bisect_left(newest, t_s)     # (np.searchsorted's index)
+        elif float(fs[0]) - reach <= t_s <= last:
+            i = int(fs.searchsorted(t_s))
+        else:
+            i = None
+        if i is not None:
+            sig = max(track.fix_sigma_m[max(i - 1, 0):i + 1].tolist())   # the worse of the two fixes around t_s
+            return UgvPosition(_interp_path(fs, track.fix_en_m, t_s, i), max(sig, cfg.min_sigma_m), "fix")
         if 0.0 < t_s - last <= reach:
             # Extrapolate with the receiver's own velocity. Differencing two noisy fixes would amplify
             # their noise (1 m noise, 0.2 s apart: 7 m/s), so without a velocity the fix is held and
@@ -298,18 +318,19 @@ def ugv_position_at(track: UgvTrack, t_s: float, cfg: LocalizerConfig) -> UgvPos
             dt = t_s - last
             sig = float(track.fix_sigma_m[-1])
             if track.fix_v_en_m_s is not None:
-                p = track.fix_en_m[-1] + track.fix_v_en_m_s[-1] * dt
-                sig = float(np.hypot(sig, cfg.velocity_sigma_m_s * dt))
+                (e, n), (ve, vn) = track.fix_en_m[-1].tolist(), track.fix_v_en_m_s[-1].tolist()
+                p = np.array([e + ve * dt, n + vn * dt])
+                sig = hypot(sig, cfg.velocity_sigma_m_s * dt)
             else:
                 p = track.fix_en_m[-1].copy()
-                sig = float(np.hypot(sig, cfg.max_ugv_speed_m_s * dt / 2.0))
+                sig = hypot(sig, cfg.max_ugv_speed_m_s * dt / 2.0)
             return UgvPosition(p, max(sig, cfg.min_sigma_m), "extrapolated")
         age = t_s - last
     else:
         age = np.inf
     ps = track.plan_stamp_s
     if len(ps) and age <= cfg.plan_hold and ps[0] <= t_s <= ps[-1]:
-        sig = float(np.hypot(cfg.plan_sigma_m, track.fix_sigma_m[-1] if len(fs) else 0.0))
+        sig = hypot(cfg.plan_sigma_m, float(track.fix_sigma_m[-1]) if len(fs) else 0.0)
         return UgvPosition(_interp_path(ps, track.plan_en_m, t_s), max(sig, cfg.min_sigma_m), "plan")
     return None
 
@@ -324,6 +345,11 @@ def ugv_positions(tracks: Mapping[str, UgvTrack], t_s: float, cfg: LocalizerConf
     return out
 
 
+def _label_px(obs: FrameObservation) -> dict[str, tuple[float, float]]:
+    """UGV id -> its roof label's centre (``Landmarks.as_dict``, from one ``tolist``)."""
+    return dict(zip(obs.landmarks.ugv, map(tuple, obs.landmarks.xy_px.tolist())))
+
+
 def pair_landmarks(state: LocalizerState, obs: FrameObservation, cfg: LocalizerConfig) -> Pairing:
     """Phase 2: blobs to UGVs (labelled blobs, then gated assignment from the labels or, inside a
     tracking interval, from each UGV's previous blob), and every blob that is a UGV."""
@@ -333,38 +359,50 @@ def pair_landmarks(state: LocalizerState, obs: FrameObservation, cfg: LocalizerC
     nb = len(blobs)
     new_interval = state.interval_start_s is None or t - state.interval_start_s >= cfg.tracking_interval_s \
         or t < state.interval_start_s
-    label_px = obs.landmarks.as_dict()
+    label_px = _label_px(obs)
     ref: dict[str, tuple[float, float]] = dict(label_px)
     if not new_interval:   # the previous blob predicts the current one better than a flickering label
         ref.update({u: (x, y) for u, x, y in state.blob_px_of_ugv})
     labelled = {u: j for j, u in enumerate(blobs.ugv) if u}
     to_assign = sorted(u for u in ref if u not in labelled)
-    free = np.array([j for j in range(nb) if j not in labelled.values()], int)
+    if labelled:
+        free = np.ones(nb, bool)
+        free[list(labelled.values())] = False
+        free = np.flatnonzero(free)
+        free_xy = xy[free]
+    else:
+        free, free_xy = None, xy
     ref_xy = np.array([ref[u] for u in to_assign], float).reshape(-1, 2)
     solve = assign_optimal if cfg.solver == "optimal" else assign_greedy
-    asg = solve(ref_xy, xy[free], cfg.gate_px)
-    is_ugv = np.zeros(nb, bool)
-    is_ugv[free] = asg.gated_blobs
-    is_ugv[list(labelled.values())] = True
+    asg = solve(ref_xy, free_xy, cfg.gate_px)
+    if free is None:
+        is_ugv = asg.gated_blobs.copy()
+    else:
+        is_ugv = np.zeros(nb, bool)
+        is_ugv[free] = asg.gated_blobs
+        is_ugv[list(labelled.values())] = True
     # labels gate blobs too, whatever the continuity says; but not those of UGVs the detector found a
-    # blob for: it carved that UGV out of whatever it drove through, so the rest is not the UGV
+    # blob for: it carved that UGV out of whatever it drove through, so the rest is not the UGV. (At the
+    # start of an interval the labels were the references: the assignment has gated their blobs.)
     unlabelled = [p for u, p in label_px.items() if u not in labelled]
-    if unlabelled and nb:
-        p = np.array(unlabelled, float)
-        is_ugv |= (np.sqrt(((p[:, None] - xy[None]) ** 2).sum(-1)) <= cfg.gate_px).any(0)
-    blob_of_ugv = {to_assign[i]: int(free[j]) for i, j in asg.blob_of_landmark.items()}
+    if unlabelled and nb and not new_interval:
+        is_ugv |= (distance_matrix(unlabelled, xy) <= cfg.gate_px).any(0)
+    blob_of_ugv = {to_assign[i]: j if free is None else int(free[j]) for i, j in asg.blob_of_landmark.items()}
     blob_of_ugv.update(labelled)
     return Pairing(blob_of_ugv, is_ugv, ref, t if new_interval else state.interval_start_s)
 
 
 def landmark_pixels(obs: FrameObservation, pairing: Pairing, cfg: LocalizerConfig) -> dict[str, np.ndarray]:
     """Phase 3: each landmark's image point (motion-blob or label centre, by ``image_coordinates``)."""
-    label_px = obs.landmarks.as_dict()
+    label_px = _label_px(obs)
+    xy = obs.blobs.xy_px
+    motion_first = cfg.image_coordinates == "motion"
     out: dict[str, np.ndarray] = {}
     for u in sorted(pairing.reference_px):
         label = label_px.get(u)
-        motion = obs.blobs.xy_px[pairing.blob_of_ugv[u]] if u in pairing.blob_of_ugv else None
-        first, second = (motion, label) if cfg.image_coordinates == "motion" else (label, motion)
+        j = pairing.blob_of_ugv.get(u)
+        motion = None if j is None else xy[j]
+        first, second = (motion, label) if motion_first else (label, motion)
         chosen = first if first is not None else second
         if chosen is not None:
             out[u] = np.asarray(chosen, float)
@@ -397,10 +435,7 @@ def fit_transform(state: LocalizerState, t_s: float, lm_px: Mapping[str, np.ndar
     if len(used) >= 4:
         px = np.array([lm_px[u] for u in used])
         en = np.array([positions[u].en_m for u in used])
-        misfit = None
-        if prior is not None:
-            miss = np.sqrt(((prior.px_to_ground(px) - en) ** 2).sum(1))
-            misfit = np.nan_to_num(miss / np.hypot(prior.sigma_m(en), sig_m), nan=1e6)
+        misfit = None if prior is None else _misfit(prior, px, en, sig_m)
         fit = fit_homography_robust(px, en, threshold_m=cfg.robust_threshold_m, prior_misfit=misfit)
         if fit:
             quality = fit.quality
@@ -416,6 +451,21 @@ def fit_transform(state: LocalizerState, t_s: float, lm_px: Mapping[str, np.ndar
     return FitOutcome(None, FitQuality.FAILED, sig_m, 0.0, used, outliers, failure, prior)
 
 
+def _misfit(prior: Prior, px: np.ndarray, en: np.ndarray, sigma_m: np.ndarray) -> np.ndarray:
+    """(n,) how far the prior maps each landmark's pixel from its ground position, in sigmas (the
+    prior's and the landmark's GNSS together); beyond the prior's horizon: 1e6."""
+    if prior.fit is None:
+        miss = np.sqrt(((prior.px_to_ground(px) - en) ** 2).sum(1))
+        misfit = miss / np.hypot(prior.sigma_m(en), sigma_m)
+    else:   # the last transform: a handful of landmarks, in plain floats
+        out = []
+        for (me, mn), (e, n), s in zip(map_few(prior.fit.H_ground_from_px, px.tolist()), en.tolist(), sigma_m.tolist()):
+            miss, scale = sqrt((me - e) * (me - e) + (mn - n) * (mn - n)), hypot(prior.fit_sigma_m, s)
+            out.append(miss / scale if scale > 0 else (inf if miss > 0 else nan))
+        misfit = np.array(out)
+    return misfit if np.isfinite(misfit).all() else np.nan_to_num(misfit, nan=1e6)
+
+
 def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, UgvPosition], pairing: Pairing,
                 cfg: LocalizerConfig) -> np.ndarray:
     """Phase 5a: (N,) bool, the blobs claimed by UGVs where the transform puts them (``ground_to_px``).
@@ -428,22 +478,27 @@ def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, Ugv
     if not positions or not len(blobs):
         return np.zeros(len(blobs), bool)
     names = sorted(positions)
-    p = ground_to_px(np.array([positions[u].en_m for u in names]))
+    where_px = ground_to_px(np.array([positions[u].en_m for u in names])).tolist()
     r = cfg.gate_px if obs.px_per_m is None else max(cfg.gate_px, cfg.claim_radius_m * obs.px_per_m)
-    label_px = obs.landmarks.as_dict()
+    label_px = _label_px(obs)
+    xy = blobs.xy_px
+    own_px = dict(zip(pairing.blob_of_ugv, xy[list(pairing.blob_of_ugv.values())].tolist()))
     claims = np.zeros(len(blobs), bool)
-    box, xy = blobs.xyxy_px, blobs.xy_px
-    for k, u in enumerate(names):
-        if not np.isfinite(p[k]).all():
+    box = blobs.xyxy_px
+    for u, (px, py) in zip(names, where_px):
+        if not (isfinite(px) and isfinite(py)) or _near(label_px.get(u), px, py, r) or _near(own_px.get(u), px, py, r):
             continue
-        own = [np.asarray(label_px[u])] if u in label_px else []
-        if u in pairing.blob_of_ugv:
-            own.append(xy[pairing.blob_of_ugv[u]])
-        if any(np.hypot(*(q - p[k])) <= r for q in own):
-            continue
-        inside = (p[k, 0] >= box[:, 0]) & (p[k, 0] <= box[:, 2]) & (p[k, 1] >= box[:, 1]) & (p[k, 1] <= box[:, 3])
-        claims |= inside | (np.sqrt(((xy - p[k]) ** 2).sum(1)) <= r)
+        inside = (px >= box[:, 0]) & (px <= box[:, 2]) & (py >= box[:, 1]) & (py <= box[:, 3])
+        claims |= inside | (np.sqrt((xy[:, 0] - px) ** 2 + (xy[:, 1] - py) ** 2) <= r)
     return claims
+
+
+def _near(q, x: float, y: float, r: float) -> bool:
+    """Whether the point ``q`` (None: nowhere) lies within ``r`` of (x, y)."""
+    return q is not None and hypot(q[0] - x, q[1] - y) <= r
+
+
+_BOX_CORNERS = np.array([0, 1, 2, 1, 2, 3, 0, 3])   # xyxy -> (x0, y0), (x1, y0), (x1, y1), (x0, y1)
 
 
 def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landmark_px: float,
@@ -452,41 +507,48 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
     beyond the horizon of a bad transform is dropped: never a NaN on the map."""
     if not len(targets):
         return ()
-    corners = blobs.xyxy_px[targets][:, [0, 1, 2, 1, 2, 3, 0, 3]].reshape(-1, 2)
+    centre_px = blobs.xy_px[targets]
+    corners = blobs.xyxy_px[targets[:, None], _BOX_CORNERS].reshape(-1, 2)
     if fit.quality == FitQuality.POSE:
         prior = fit.prior
-        en = prior.px_to_ground(blobs.xy_px[targets])
+        en = prior.px_to_ground(centre_px)
         fp = prior.px_to_ground(corners).reshape(-1, 4, 2)
         s_t = sigma_target_px / px_per_m if px_per_m else 0.0
         r95 = R95_PER_SIGMA * np.sqrt(prior.sigma_m(en) ** 2 + s_t ** 2)
         n_out = 0
     else:
         h = fit.fit
-        en, cov = h.map_points_with_cov(blobs.xy_px[targets], sigma_target_px, sigma_landmark_px, fit.sigma_m)
-        r95 = radius95_m(cov) + (cfg.held_growth_m_s * fit.age_s if fit.quality == FitQuality.HELD else 0.0)
+        en, cov = h.map_points_with_cov(centre_px, sigma_target_px, sigma_landmark_px, fit.sigma_m)
+        r95 = radius95_m(cov)
+        if fit.quality == FitQuality.HELD:
+            r95 += cfg.held_growth_m_s * fit.age_s
         if fit.quality == FitQuality.SUSPECT:   # the fit or its prior is wrong: the radius covers both
-            off = np.sqrt(((en - fit.prior.px_to_ground(blobs.xy_px[targets])) ** 2).sum(1))
+            off = np.sqrt(((en - fit.prior.px_to_ground(centre_px)) ** 2).sum(1))
             r95 = np.maximum(r95, off + R95_PER_SIGMA * fit.prior.sigma_m(en))
         fp = h.px_to_ground(corners).reshape(-1, 4, 2)
-        n_out = int((~h.inliers).sum())
-    finite = np.isfinite(en).all(1) & np.isfinite(r95) & np.isfinite(fp).all((1, 2))
-    return tuple(CrowdEstimate(int(targets[k]), float(en[k, 0]), float(en[k, 1]), fp[k], float(r95[k]), fit.quality,
-                               n_out, float(blobs.area_px[targets[k]])) for k in np.flatnonzero(finite))
+        n_out = int(len(h.inliers) - h.inliers.sum())
+    finite = np.isfinite(np.column_stack([en, r95, fp.reshape(-1, 8)])).all(1)
+    keep = range(len(targets)) if finite.all() else np.flatnonzero(finite).tolist()
+    idx, e, n, r, area = targets.tolist(), en[:, 0].tolist(), en[:, 1].tolist(), r95.tolist(), \
+        blobs.area_px[targets].tolist()
+    q = fit.quality
+    return tuple(CrowdEstimate(idx[k], e[k], n[k], fp[k], r[k], q, n_out, area[k]) for k in keep)
 
 
 def learn_pose_bias(state: LocalizerState, fit: Homography, pose: PosePrior, cfg: LocalizerConfig) -> LocalizerState:
     """With a fresh landmark fit and a pose: where the fit puts the pose's nadir point, less that point,
     averaged over frames (its scatter too), so that POSE placements carry the pose's bias no more."""
-    nadir_px = pose.ground_to_px(pose.camera_en_m[None])
-    d = fit.px_to_ground(nadir_px)[0] - pose.camera_en_m
-    if not np.isfinite(d).all():
+    nadir_en = tuple(pose.camera_en_m.tolist())
+    ((de, dn),) = map_few(fit.H_ground_from_px, map_few(pose.H_px_from_ground, [nadir_en]))
+    de, dn = de - nadir_en[0], dn - nadir_en[1]
+    if not (isfinite(de) and isfinite(dn)):
         return state
     n = state.pose_bias_n + 1
     a = max(cfg.pose_bias_rate, 1.0 / n)
-    b = np.array(state.pose_bias_en_m)
-    b_new = b + a * (d - b)
-    var = (1 - a) * state.pose_bias_var_m2 + a * float(((d - b_new) ** 2).mean()) if n > 1 else 0.0
-    return replace(state, pose_bias_en_m=(float(b_new[0]), float(b_new[1])), pose_bias_var_m2=var, pose_bias_n=n)
+    be, bn = state.pose_bias_en_m
+    be, bn = be + a * (de - be), bn + a * (dn - bn)
+    var = (1 - a) * state.pose_bias_var_m2 + a * (((de - be) * (de - be) + (dn - bn) * (dn - bn)) / 2) if n > 1 else 0.0
+    return replace(state, pose_bias_en_m=(float(be), float(bn)), pose_bias_var_m2=var, pose_bias_n=n)
 
 
 def localize_step(state: LocalizerState, obs: FrameObservation, tracks: Mapping[str, UgvTrack],
@@ -514,7 +576,7 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: Mapping[
     xy = obs.blobs.xy_px
     new_state = replace(
         state, interval_start_s=pairing.interval_start_s,
-        blob_px_of_ugv=tuple((u, float(xy[j][0]), float(xy[j][1])) for u, j in sorted(pairing.blob_of_ugv.items())),
+        blob_px_of_ugv=tuple((u, *xy[j].tolist()) for u, j in sorted(pairing.blob_of_ugv.items())),
         last_fit=fit.fit if fresh else state.last_fit, last_fit_stamp_s=t if fresh else state.last_fit_stamp_s,
         last_fit_sigma_m=fit.sigma_m if fresh else state.last_fit_sigma_m)
     if fresh and obs.pose is not None and fit.quality != FitQuality.SUSPECT:

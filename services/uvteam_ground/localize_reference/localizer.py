@@ -1,0 +1,526 @@
+# FROZEN: uvteam/localizer.py as it was at commit 4d30179 (before the localizer was made faster), the reference
+# that uvteam_ground.bench_localize measures the product against and checks it equals. Do not edit.
+"""The localizer step: UAV detections + UGV fixes/plans -> crowds on the ground. Pure: no I/O, no clock.
+
+Everything here is in the localizer's east-north frame (metres); WGS84 is the message boundary's
+business (:mod:`uvteam.nodes.localizer`). Per frame, :func:`localize_step` runs five phases:
+
+1. :func:`ugv_positions` -- each UGV's ground position at the frame's capture time: interpolated
+   between its fixes; a short extrapolation past the newest fix (fix latency: up to 1.5 fix intervals
+   plus the latency the track has measured, at least ``fix_extrapolate_s``); when fixes are late or
+   missing, its planned waypoints for at most one tracking interval after the newest fix (the paper's
+   rule); else unusable.
+2. :func:`pair_landmarks` -- landmark <-> blob assignment: a blob in which the detector saw a UGV's
+   roof label is that UGV's; the rest solved afresh at the start of each tracking interval from the
+   label centres; inside the interval the pairing is kept by continuity (each UGV's previous
+   motion-blob centre predicts where its blob is now), so a UGV whose label flickers keeps its blob.
+   Every blob within the gate of a label is a UGV, never a crowd, unless the detector labelled another
+   blob as that UGV's (it carved the UGV out of a crowd it drove into: what is left beside it is crowd).
+3. :func:`landmark_pixels` -- each landmark's image point: its motion blob's centre or its label's
+   (``image_coordinates``), the other when the first is missing.
+4. :func:`fit_transform` -- the transform from >= 4 usable landmarks: exact (4), least squares (> 4),
+   robust with named outliers (>= 5). What was known before this frame (the last transform while it
+   is fresh, else the camera's pose) is a prior: it tells which landmark lies when several consensus
+   sets are as large, and a four-landmark fit that disagrees with it is flagged SUSPECT (its radius
+   covers the disagreement). With fewer landmarks, the last good transform is held for ``hold_max_s``
+   (HELD), else the camera's pose places the crowd (POSE: its ray onto the ground, less the bias learnt
+   against the landmark transforms while there were some, with a radius from the attitude and height).
+5. :func:`claim_blobs` and :func:`map_targets` -- every UGV whose position is known claims the blob
+   whose box holds, or whose centre is near, where the transform puts it, unless its label or its own
+   blob was found there: a UGV is never a crowd, whether its label was seen there, elsewhere (a
+   label-coloured patch taken for it) or not at all. Every remaining blob is mapped to the ground
+   (centre and box footprint) with a 95 % radius from the propagated pixel and GNSS noise, and the
+   quality flag. No estimate leaves without its flag.
+
+The pixel noise the radius propagates is what the detector declares with its detections
+(:class:`FrameObservation` ``sigma_*``), unless the config overrides it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .assignment import assign_greedy, assign_optimal
+from uvteam.blobs import Blobs, Landmarks
+from uvteam.geo import LocalFrame
+from .homography import Homography, fit_homography_robust, radius95_m
+from .pose import PosePrior
+from uvteam.vocab import IMAGE_COORDINATES, SOLVERS, FitQuality, check_choice
+
+__all__ = [
+    "UgvTrack", "FrameObservation", "LocalizerConfig", "LocalizerState", "CrowdEstimate", "StepResult",
+    "UgvPosition", "Pairing", "FitOutcome", "ugv_position_at", "ugv_positions", "pair_landmarks",
+    "landmark_pixels", "fit_transform", "claim_blobs", "map_targets", "localize_step", "ugv_track",
+]
+R95_PER_SIGMA = 2.4477      # the 95 % circle of an isotropic 2-D Gaussian, in sigmas
+
+
+@dataclass(frozen=True, slots=True)
+class UgvTrack:
+    """What the localizer knows of one UGV: recent fixes (oldest first) and its planned waypoints."""
+
+    fix_stamp_s: np.ndarray        # (k,) capture times
+    fix_en_m: np.ndarray           # (k, 2) east/north in the localizer's frame
+    fix_sigma_m: np.ndarray        # (k,) 1-sigma horizontal accuracy per axis
+    plan_stamp_s: np.ndarray = field(default_factory=lambda: np.empty(0))   # (w,) planned times
+    plan_en_m: np.ndarray = field(default_factory=lambda: np.empty((0, 2)))  # (w, 2)
+    fix_v_en_m_s: np.ndarray | None = None  # (k, 2) reported (Doppler) velocity, when the receiver gives it
+    fix_latency_s: float = 0.0     # how late fixes arrive after their capture time (median, measured)
+
+    @staticmethod
+    def from_wgs84(frame: LocalFrame, fix_stamp_s, fix_lat_deg, fix_lon_deg, fix_sigma_m,
+                   plan_stamp_s=(), plan_lat_deg=(), plan_lon_deg=()) -> "UgvTrack":
+        fe, fn = frame.wgs84_to_ground(np.asarray(fix_lat_deg, float), np.asarray(fix_lon_deg, float))
+        pe, pn = frame.wgs84_to_ground(np.asarray(plan_lat_deg, float), np.asarray(plan_lon_deg, float))
+        return UgvTrack(np.asarray(fix_stamp_s, float), np.stack([fe, fn], -1).reshape(-1, 2),
+                        np.asarray(fix_sigma_m, float), np.asarray(plan_stamp_s, float),
+                        np.stack([pe, pn], -1).reshape(-1, 2))
+
+
+def ugv_track(frame: LocalFrame, fixes: Sequence, plan=None, latency_s: float = 0.0) -> UgvTrack:
+    """A UGV's track from its fixes (:class:`uvteam.messages.Fix`, oldest first) and its newest plan
+    (:class:`uvteam.messages.Plan` or None). The plan starts where the UGV was when it was made: its
+    position interpolated in the fixes at the plan's stamp (the newest fix when the plan is newer)."""
+    st = np.array([f.stamp_s for f in fixes], float)
+    e, n = frame.wgs84_to_ground(np.array([f.lat_deg for f in fixes], float), np.array([f.lon_deg for f in fixes], float))
+    en = np.column_stack([e, n]).reshape(-1, 2)
+    sg = np.array([f.h_acc_m for f in fixes], float)
+    known_v = all(f.v_east_m_s is not None for f in fixes)
+    vel = np.array([[f.v_east_m_s, f.v_north_m_s] for f in fixes], float).reshape(-1, 2) if known_v else None
+    if plan is not None and plan.waypoints and len(st):
+        ps = np.array([w.stamp_s for w in plan.waypoints], float)
+        pe, pn = frame.wgs84_to_ground(np.array([w.lat_deg for w in plan.waypoints], float),
+                                       np.array([w.lon_deg for w in plan.waypoints], float))
+        start = _interp_path(st, en, plan.stamp_s)
+        ps, pen = np.concatenate([[plan.stamp_s], ps]), np.vstack([start, np.column_stack([pe, pn])])
+    else:
+        ps, pen = np.empty(0), np.empty((0, 2))
+    return UgvTrack(st, en, sg, ps, pen, vel, float(latency_s))
+
+
+@dataclass(frozen=True, slots=True)
+class FrameObservation:
+    """One UAV frame's detections, with the 1-sigma pixel noise the detector declares for them."""
+
+    stamp_s: float                          # capture time
+    landmarks: Landmarks                    # UGV id -> roof-label centre
+    blobs: Blobs                            # motion blobs; ``ugv``: the UGV whose label the detector saw in it
+    sigma_color_px: float = 0.5
+    sigma_ugv_blob_px: float = 1.0
+    sigma_crowd_blob_px: float = 1.5
+    pose: PosePrior | None = None           # the camera's pose in the localizer's frame, when reported
+    px_per_m: float | None = None           # image scale at the ground (focal / height), when known
+
+
+@dataclass(frozen=True, slots=True)
+class LocalizerConfig:
+    gate_px: float = 25.0                   # the paper's epsilon
+    tracking_interval_s: float = 1.0
+    image_coordinates: str = "motion"       # "motion" | "color": which centre a landmark uses
+    solver: str = "optimal"                 # "optimal" | "greedy"
+    fix_extrapolate_s: float = 0.3          # extrapolate past the newest fix at least this long
+    plan_hold_s: float | None = None        # use the plan at most this long after the newest fix
+    plan_sigma_m: float = 1.0               # 1-sigma of a planned position (how well UGVs follow plans)
+    hold_max_s: float = 1.0                 # hold the last transform at most this long
+    held_growth_m_s: float = 2.0            # 95 % radius growth per second of hold (camera drift)
+    robust_threshold_m: float = 3.0
+    sigma_landmark_px: float | None = None  # None: what the detector declares (label or UGV blob, by image_coordinates)
+    sigma_target_px: float | None = None    # None: what the detector declares for a crowd's blob
+    min_sigma_m: float = 0.02               # floor on a fix's sigma (a reported 0 is not perfection)
+    velocity_sigma_m_s: float = 0.1         # 1-sigma of a reported UGV velocity
+    max_ugv_speed_m_s: float = 6.0          # bounds the drift of a UGV whose velocity is unknown
+    extrapolate_fix_intervals: float = 1.5  # extrapolate up to this many of a track's fix intervals (+ its latency,
+    max_fix_latency_s: float = 0.5          #   counted up to this: later fixes leave the UGV to its plan)
+    prior_max_age_s: float = 1.0            # the last transform is the prior this long, then the pose is
+    prior_sigma_m: float = 1.0              # how far the last transform maps a landmark off from frame to frame
+    prior_growth_m_s: float = 2.0           # ... growing per second of its age (the camera moves and turns)
+    suspect_sigmas: float = 4.0             # a 4-landmark fit this many sigmas from its prior is SUSPECT
+    claim_radius_m: float = 2.5             # a UGV claims blobs this close to where it is (its size and trail)
+    pose_bias_rate: float = 0.05            # how fast the pose's bias against landmark transforms is learnt
+
+    def __post_init__(self) -> None:
+        for what, v, choices in (("image_coordinates", self.image_coordinates, IMAGE_COORDINATES),
+                                 ("solver", self.solver, SOLVERS)):
+            why = check_choice(what, v, choices)
+            if why:
+                raise ValueError(why)
+        for name in ("gate_px", "tracking_interval_s", "hold_max_s", "robust_threshold_m"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        for name in ("sigma_landmark_px", "sigma_target_px"):
+            v = getattr(self, name)
+            if v is not None and not (np.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be a finite value >= 0 or None, got {v}")
+
+    @property
+    def plan_hold(self) -> float:
+        return self.tracking_interval_s if self.plan_hold_s is None else self.plan_hold_s
+
+    def sigmas_px(self, obs: FrameObservation) -> tuple[float, float]:
+        """(landmark, target) 1-sigma pixel noise: the config's when given, else the detector's."""
+        lm = obs.sigma_ugv_blob_px if self.image_coordinates == "motion" else obs.sigma_color_px
+        return (lm if self.sigma_landmark_px is None else self.sigma_landmark_px,
+                obs.sigma_crowd_blob_px if self.sigma_target_px is None else self.sigma_target_px)
+
+
+@dataclass(frozen=True, slots=True)
+class LocalizerState:
+    interval_start_s: float | None = None
+    blob_px_of_ugv: tuple[tuple[str, float, float], ...] = ()   # continuity: last paired blob centre
+    last_fit: Homography | None = None
+    last_fit_stamp_s: float = -np.inf
+    last_fit_sigma_m: np.ndarray | None = None  # (n,) GNSS 1-sigma of the landmarks behind last_fit
+    pose_bias_en_m: tuple[float, float] = (0.0, 0.0)  # where landmark transforms put the image centre, less the pose
+    pose_bias_var_m2: float = 0.0           # the scatter of that difference (per axis)
+    pose_bias_n: int = 0                    # frames it was learnt from
+
+
+@dataclass(frozen=True, slots=True)
+class CrowdEstimate:
+    blob_index: int
+    east_m: float
+    north_m: float
+    footprint_en_m: np.ndarray              # (4, 2) the blob's box corners on the ground
+    radius95_m: float
+    quality: FitQuality
+    n_outliers: int
+    area_px: float = 1.0                    # the blob's moving pixels, from the detector
+
+
+@dataclass(frozen=True, slots=True)
+class UgvPosition:
+    en_m: np.ndarray                        # (2,) east/north
+    sigma_m: float                          # 1-sigma per axis
+    source: str                             # "fix" | "extrapolated" | "plan"
+
+
+@dataclass(frozen=True, slots=True)
+class Pairing:
+    """Phase 2's outcome: which blob is which UGV, and which blobs are UGVs, never crowds."""
+
+    blob_of_ugv: dict[str, int]
+    is_ugv: np.ndarray                      # (N,) bool
+    reference_px: dict[str, tuple[float, float]]   # the point each UGV was looked for at
+    interval_start_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class FitOutcome:
+    """Phase 4's outcome: the transform to use this frame (None: none) and what it rests on."""
+
+    fit: Homography | None
+    quality: FitQuality
+    sigma_m: np.ndarray                     # GNSS 1-sigma of the landmarks given to the fit
+    age_s: float                            # > 0 when an earlier transform is held
+    used: tuple[str, ...]
+    outliers: tuple[str, ...]
+    failure: str | None
+    prior: "Prior | None" = None            # what was known before this frame (SUSPECT fits' radii use it)
+
+
+@dataclass(frozen=True, slots=True)
+class Prior:
+    """What was known of the transform before this frame: the last fresh fit (``fit``), or the camera's
+    pose less the bias learnt against landmark fits (``pose``, ``bias_en_m``, ``bias_var_m2``)."""
+
+    source: str                             # "last_fit" | "pose"
+    fit: Homography | None = None
+    fit_sigma_m: float = 0.0
+    pose: PosePrior | None = None
+    bias_en_m: np.ndarray | None = None
+    bias_var_m2: float | None = None        # None: nothing learnt yet, the pose's own error model holds
+
+    def px_to_ground(self, xy_px) -> np.ndarray:
+        if self.fit is not None:
+            return self.fit.px_to_ground(xy_px)
+        return self.pose.px_to_ground(xy_px) + self.bias_en_m
+
+    def sigma_m(self, en_m) -> np.ndarray:
+        """(N,) 1-sigma per axis of the prior at these ground points."""
+        en = np.asarray(en_m, float).reshape(-1, 2)
+        if self.fit is not None:
+            return np.full(len(en), self.fit_sigma_m)
+        model = self.pose.sigma_m(en)
+        if self.bias_var_m2 is None:
+            return model
+        # learnt: the scatter seen at the image centre, plus what the model adds off the nadir point
+        at_nadir = self.pose.sigma_m(self.pose.camera_en_m[None])[0]
+        return np.sqrt(self.bias_var_m2 + np.maximum(model ** 2 - at_nadir ** 2, 0.0))
+
+
+@dataclass(frozen=True, slots=True)
+class StepResult:
+    stamp_s: float
+    quality: FitQuality
+    crowds: tuple[CrowdEstimate, ...]
+    landmarks_used: tuple[str, ...]
+    outlier_landmarks: tuple[str, ...]
+    blob_of_ugv: dict[str, int]
+    position_source: dict[str, str]         # UGV id -> "fix" | "extrapolated" | "plan"
+    fit_age_s: float
+    failure: str | None = None
+
+
+def _interp_path(stamps: np.ndarray, en: np.ndarray, t: float) -> np.ndarray:
+    i = int(np.searchsorted(stamps, t))
+    if i <= 0:
+        return en[0].copy()
+    if i >= len(stamps):
+        return en[-1].copy()
+    t0, t1 = stamps[i - 1], stamps[i]
+    a = (t - t0) / (t1 - t0) if t1 > t0 else 1.0
+    return en[i - 1] + a * (en[i] - en[i - 1])
+
+
+def _extrapolate_s(track: UgvTrack, cfg: LocalizerConfig) -> float:
+    fs = track.fix_stamp_s
+    interval = float(np.median(np.diff(fs[-8:]))) if len(fs) >= 2 else 0.0
+    return max(cfg.fix_extrapolate_s,
+               cfg.extrapolate_fix_intervals * interval + min(track.fix_latency_s, cfg.max_fix_latency_s))
+
+
+def ugv_position_at(track: UgvTrack, t_s: float, cfg: LocalizerConfig) -> UgvPosition | None:
+    """A UGV's position at time t_s, or None when it is not known well enough (phase 1)."""
+    fs = track.fix_stamp_s
+    if len(fs):
+        last = fs[-1]
+        reach = _extrapolate_s(track, cfg)
+        if fs[0] - reach <= t_s <= last:
+            i = int(np.searchsorted(fs, t_s))
+            j = max(i - 1, 0)
+            sig = float(max(track.fix_sigma_m[min(i, len(fs) - 1)], track.fix_sigma_m[j]))
+            return UgvPosition(_interp_path(fs, track.fix_en_m, t_s), max(sig, cfg.min_sigma_m), "fix")
+        if 0.0 < t_s - last <= reach:
+            # Extrapolate with the receiver's own velocity. Differencing two noisy fixes would amplify
+            # their noise (1 m noise, 0.2 s apart: 7 m/s), so without a velocity the fix is held and
+            # its sigma grows by the distance an unseen UGV could cover.
+            dt = t_s - last
+            sig = float(track.fix_sigma_m[-1])
+            if track.fix_v_en_m_s is not None:
+                p = track.fix_en_m[-1] + track.fix_v_en_m_s[-1] * dt
+                sig = float(np.hypot(sig, cfg.velocity_sigma_m_s * dt))
+            else:
+                p = track.fix_en_m[-1].copy()
+                sig = float(np.hypot(sig, cfg.max_ugv_speed_m_s * dt / 2.0))
+            return UgvPosition(p, max(sig, cfg.min_sigma_m), "extrapolated")
+        age = t_s - last
+    else:
+        age = np.inf
+    ps = track.plan_stamp_s
+    if len(ps) and age <= cfg.plan_hold and ps[0] <= t_s <= ps[-1]:
+        sig = float(np.hypot(cfg.plan_sigma_m, track.fix_sigma_m[-1] if len(fs) else 0.0))
+        return UgvPosition(_interp_path(ps, track.plan_en_m, t_s), max(sig, cfg.min_sigma_m), "plan")
+    return None
+
+
+def ugv_positions(tracks: Mapping[str, UgvTrack], t_s: float, cfg: LocalizerConfig) -> dict[str, UgvPosition]:
+    """Phase 1: every UGV whose position at ``t_s`` is known well enough."""
+    out = {}
+    for ugv, tr in tracks.items():
+        pos = ugv_position_at(tr, t_s, cfg)
+        if pos is not None:
+            out[ugv] = pos
+    return out
+
+
+def pair_landmarks(state: LocalizerState, obs: FrameObservation, cfg: LocalizerConfig) -> Pairing:
+    """Phase 2: blobs to UGVs (labelled blobs, then gated assignment from the labels or, inside a
+    tracking interval, from each UGV's previous blob), and every blob that is a UGV."""
+    t = obs.stamp_s
+    blobs = obs.blobs
+    xy = blobs.xy_px
+    nb = len(blobs)
+    new_interval = state.interval_start_s is None or t - state.interval_start_s >= cfg.tracking_interval_s \
+        or t < state.interval_start_s
+    label_px = obs.landmarks.as_dict()
+    ref: dict[str, tuple[float, float]] = dict(label_px)
+    if not new_interval:   # the previous blob predicts the current one better than a flickering label
+        ref.update({u: (x, y) for u, x, y in state.blob_px_of_ugv})
+    labelled = {u: j for j, u in enumerate(blobs.ugv) if u}
+    to_assign = sorted(u for u in ref if u not in labelled)
+    free = np.array([j for j in range(nb) if j not in labelled.values()], int)
+    ref_xy = np.array([ref[u] for u in to_assign], float).reshape(-1, 2)
+    solve = assign_optimal if cfg.solver == "optimal" else assign_greedy
+    asg = solve(ref_xy, xy[free], cfg.gate_px)
+    is_ugv = np.zeros(nb, bool)
+    is_ugv[free] = asg.gated_blobs
+    is_ugv[list(labelled.values())] = True
+    # labels gate blobs too, whatever the continuity says; but not those of UGVs the detector found a
+    # blob for: it carved that UGV out of whatever it drove through, so the rest is not the UGV
+    unlabelled = [p for u, p in label_px.items() if u not in labelled]
+    if unlabelled and nb:
+        p = np.array(unlabelled, float)
+        is_ugv |= (np.sqrt(((p[:, None] - xy[None]) ** 2).sum(-1)) <= cfg.gate_px).any(0)
+    blob_of_ugv = {to_assign[i]: int(free[j]) for i, j in asg.blob_of_landmark.items()}
+    blob_of_ugv.update(labelled)
+    return Pairing(blob_of_ugv, is_ugv, ref, t if new_interval else state.interval_start_s)
+
+
+def landmark_pixels(obs: FrameObservation, pairing: Pairing, cfg: LocalizerConfig) -> dict[str, np.ndarray]:
+    """Phase 3: each landmark's image point (motion-blob or label centre, by ``image_coordinates``)."""
+    label_px = obs.landmarks.as_dict()
+    out: dict[str, np.ndarray] = {}
+    for u in sorted(pairing.reference_px):
+        label = label_px.get(u)
+        motion = obs.blobs.xy_px[pairing.blob_of_ugv[u]] if u in pairing.blob_of_ugv else None
+        first, second = (motion, label) if cfg.image_coordinates == "motion" else (label, motion)
+        chosen = first if first is not None else second
+        if chosen is not None:
+            out[u] = np.asarray(chosen, float)
+    return out
+
+
+POSE_BIAS_MIN_FRAMES = 10   # the pose's bias counts as learnt after this many frames with a landmark fit
+
+
+def prior_of(state: LocalizerState, obs: FrameObservation, cfg: LocalizerConfig) -> Prior | None:
+    """The prior for this frame: the last fresh transform while younger than ``prior_max_age_s``, else
+    the camera's pose less its learnt bias, else none."""
+    age = obs.stamp_s - state.last_fit_stamp_s
+    if state.last_fit is not None and 0.0 <= age <= cfg.prior_max_age_s:
+        return Prior("last_fit", fit=state.last_fit, fit_sigma_m=cfg.prior_sigma_m + cfg.prior_growth_m_s * age)
+    if obs.pose is not None:
+        learnt = state.pose_bias_n >= POSE_BIAS_MIN_FRAMES
+        return Prior("pose", pose=obs.pose, bias_en_m=np.array(state.pose_bias_en_m) if learnt else np.zeros(2),
+                     bias_var_m2=state.pose_bias_var_m2 if learnt else None)
+    return None
+
+
+def fit_transform(state: LocalizerState, t_s: float, lm_px: Mapping[str, np.ndarray],
+                  positions: Mapping[str, UgvPosition], cfg: LocalizerConfig, prior: Prior | None = None) -> FitOutcome:
+    """Phase 4: the transform from this frame's landmarks (the prior breaks ties between consensus sets
+    and flags a four-landmark fit it disagrees with), or the last one held, or none."""
+    used = tuple(u for u in sorted(lm_px) if u in positions)
+    sig_m = np.array([positions[u].sigma_m for u in used])
+    failure, outliers = None, ()
+    if len(used) >= 4:
+        px = np.array([lm_px[u] for u in used])
+        en = np.array([positions[u].en_m for u in used])
+        misfit = None
+        if prior is not None:
+            miss = np.sqrt(((prior.px_to_ground(px) - en) ** 2).sum(1))
+            misfit = np.nan_to_num(miss / np.hypot(prior.sigma_m(en), sig_m), nan=1e6)
+        fit = fit_homography_robust(px, en, threshold_m=cfg.robust_threshold_m, prior_misfit=misfit)
+        if fit:
+            quality = fit.quality
+            if len(used) == 4 and misfit is not None and misfit.max() > cfg.suspect_sigmas:
+                quality = FitQuality.SUSPECT
+            return FitOutcome(fit, quality, sig_m, 0.0, used, tuple(used[i] for i in fit.outliers), None, prior)
+        failure = f"{fit.reason.value}: {fit.detail}"
+    else:
+        failure = f"too_few: {len(used)} usable landmarks"
+    if state.last_fit is not None and 0.0 <= t_s - state.last_fit_stamp_s <= cfg.hold_max_s:
+        return FitOutcome(state.last_fit, FitQuality.HELD, state.last_fit_sigma_m, t_s - state.last_fit_stamp_s,
+                          used, outliers, failure)
+    return FitOutcome(None, FitQuality.FAILED, sig_m, 0.0, used, outliers, failure, prior)
+
+
+def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, UgvPosition], pairing: Pairing,
+                cfg: LocalizerConfig) -> np.ndarray:
+    """Phase 5a: (N,) bool, the blobs claimed by UGVs where the transform puts them (``ground_to_px``).
+
+    A UGV whose label or own blob was found there (within ``claim_radius_m``, or the gate) needs no
+    claim: the detector carved it out of whatever it drives through, so a crowd's blob beside it stays a
+    crowd. Any other UGV whose position is known (its label not seen, or seen elsewhere: a patch of its
+    color on the ground) claims the blobs whose box holds that point or whose centre is near it."""
+    blobs = obs.blobs
+    if not positions or not len(blobs):
+        return np.zeros(len(blobs), bool)
+    names = sorted(positions)
+    p = ground_to_px(np.array([positions[u].en_m for u in names]))
+    r = cfg.gate_px if obs.px_per_m is None else max(cfg.gate_px, cfg.claim_radius_m * obs.px_per_m)
+    label_px = obs.landmarks.as_dict()
+    claims = np.zeros(len(blobs), bool)
+    box, xy = blobs.xyxy_px, blobs.xy_px
+    for k, u in enumerate(names):
+        if not np.isfinite(p[k]).all():
+            continue
+        own = [np.asarray(label_px[u])] if u in label_px else []
+        if u in pairing.blob_of_ugv:
+            own.append(xy[pairing.blob_of_ugv[u]])
+        if any(np.hypot(*(q - p[k])) <= r for q in own):
+            continue
+        inside = (p[k, 0] >= box[:, 0]) & (p[k, 0] <= box[:, 2]) & (p[k, 1] >= box[:, 1]) & (p[k, 1] <= box[:, 3])
+        claims |= inside | (np.sqrt(((xy - p[k]) ** 2).sum(1)) <= r)
+    return claims
+
+
+def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landmark_px: float,
+                sigma_target_px: float, cfg: LocalizerConfig, px_per_m: float | None = None) -> tuple[CrowdEstimate, ...]:
+    """Phase 5b: the target blobs (indices) on the ground with their 95 % radii and footprints. A point
+    beyond the horizon of a bad transform is dropped: never a NaN on the map."""
+    if not len(targets):
+        return ()
+    corners = blobs.xyxy_px[targets][:, [0, 1, 2, 1, 2, 3, 0, 3]].reshape(-1, 2)
+    if fit.quality == FitQuality.POSE:
+        prior = fit.prior
+        en = prior.px_to_ground(blobs.xy_px[targets])
+        fp = prior.px_to_ground(corners).reshape(-1, 4, 2)
+        s_t = sigma_target_px / px_per_m if px_per_m else 0.0
+        r95 = R95_PER_SIGMA * np.sqrt(prior.sigma_m(en) ** 2 + s_t ** 2)
+        n_out = 0
+    else:
+        h = fit.fit
+        en, cov = h.map_points_with_cov(blobs.xy_px[targets], sigma_target_px, sigma_landmark_px, fit.sigma_m)
+        r95 = radius95_m(cov) + (cfg.held_growth_m_s * fit.age_s if fit.quality == FitQuality.HELD else 0.0)
+        if fit.quality == FitQuality.SUSPECT:   # the fit or its prior is wrong: the radius covers both
+            off = np.sqrt(((en - fit.prior.px_to_ground(blobs.xy_px[targets])) ** 2).sum(1))
+            r95 = np.maximum(r95, off + R95_PER_SIGMA * fit.prior.sigma_m(en))
+        fp = h.px_to_ground(corners).reshape(-1, 4, 2)
+        n_out = int((~h.inliers).sum())
+    finite = np.isfinite(en).all(1) & np.isfinite(r95) & np.isfinite(fp).all((1, 2))
+    return tuple(CrowdEstimate(int(targets[k]), float(en[k, 0]), float(en[k, 1]), fp[k], float(r95[k]), fit.quality,
+                               n_out, float(blobs.area_px[targets[k]])) for k in np.flatnonzero(finite))
+
+
+def learn_pose_bias(state: LocalizerState, fit: Homography, pose: PosePrior, cfg: LocalizerConfig) -> LocalizerState:
+    """With a fresh landmark fit and a pose: where the fit puts the pose's nadir point, less that point,
+    averaged over frames (its scatter too), so that POSE placements carry the pose's bias no more."""
+    nadir_px = pose.ground_to_px(pose.camera_en_m[None])
+    d = fit.px_to_ground(nadir_px)[0] - pose.camera_en_m
+    if not np.isfinite(d).all():
+        return state
+    n = state.pose_bias_n + 1
+    a = max(cfg.pose_bias_rate, 1.0 / n)
+    b = np.array(state.pose_bias_en_m)
+    b_new = b + a * (d - b)
+    var = (1 - a) * state.pose_bias_var_m2 + a * float(((d - b_new) ** 2).mean()) if n > 1 else 0.0
+    return replace(state, pose_bias_en_m=(float(b_new[0]), float(b_new[1])), pose_bias_var_m2=var, pose_bias_n=n)
+
+
+def localize_step(state: LocalizerState, obs: FrameObservation, tracks: Mapping[str, UgvTrack],
+                  cfg: LocalizerConfig) -> tuple[LocalizerState, StepResult]:
+    """One frame through the five phases (module docstring); returns the next state and the result."""
+    t = obs.stamp_s
+    positions = ugv_positions(tracks, t, cfg)
+    pairing = pair_landmarks(state, obs, cfg)
+    lm_px = landmark_pixels(obs, pairing, cfg)
+    prior = prior_of(state, obs, cfg)
+    fit = fit_transform(state, t, lm_px, positions, cfg, prior)
+    if fit.fit is None and prior is not None and prior.source == "pose":
+        fit = replace(fit, quality=FitQuality.POSE)
+    crowds: tuple[CrowdEstimate, ...] = ()
+    if (fit.fit is not None or fit.quality == FitQuality.POSE) and len(obs.blobs):
+        if fit.fit is not None:
+            to_px = fit.fit.ground_to_px
+        else:
+            to_px = lambda en: obs.pose.ground_to_px(np.asarray(en) - prior.bias_en_m)  # noqa: E731
+        is_ugv = pairing.is_ugv | claim_blobs(to_px, obs, positions, pairing, cfg)
+        is_ugv[list(pairing.blob_of_ugv.values())] = True
+        s_lm, s_tg = cfg.sigmas_px(obs)
+        crowds = map_targets(fit, obs.blobs, np.flatnonzero(~is_ugv), s_lm, s_tg, cfg, obs.px_per_m)
+    fresh = fit.fit is not None and fit.quality != FitQuality.HELD
+    xy = obs.blobs.xy_px
+    new_state = replace(
+        state, interval_start_s=pairing.interval_start_s,
+        blob_px_of_ugv=tuple((u, float(xy[j][0]), float(xy[j][1])) for u, j in sorted(pairing.blob_of_ugv.items())),
+        last_fit=fit.fit if fresh else state.last_fit, last_fit_stamp_s=t if fresh else state.last_fit_stamp_s,
+        last_fit_sigma_m=fit.sigma_m if fresh else state.last_fit_sigma_m)
+    if fresh and obs.pose is not None and fit.quality != FitQuality.SUSPECT:
+        new_state = learn_pose_bias(new_state, fit.fit, obs.pose, cfg)
+    result = StepResult(t, fit.quality, crowds, fit.used, fit.outliers, pairing.blob_of_ugv,
+                        {u: p.source for u, p in positions.items()}, fit.age_s, fit.failure)
+    return new_state, result

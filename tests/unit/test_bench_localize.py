@@ -1,0 +1,38 @@
+"""The localizer benchmark runs, and refuses to time a step that gives other results than the frozen one."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from uvteam import localizer as now
+from uvteam_ground import bench_localize
+from uvteam_ground.localize_reference import localizer as before
+
+
+def test_the_benchmark_times_both_steps_and_the_yardstick(capsys):
+    out = bench_localize.bench_localize(rounds=1, big_rounds=1, blobs=(20, 1200))   # 20: small path, 1200: big path
+    assert set(out) == {20, 1200}
+    for r in out.values():
+        assert r["now_us"] > 0 and r["before_us"] > 0 and r["cv2_us"] > 0 and r["crowds_compared"] > 0
+        assert r["max_diff_m"] <= 1e-9
+    text = capsys.readouterr().out
+    assert "us/step" in text and "before/now" in text
+
+
+def test_a_step_that_moves_a_crowd_is_not_the_same_step(monkeypatch):
+    def moved(state, obs, tracks, cfg):
+        st, res = now.localize_step(state, obs, tracks, cfg)
+        crowds = tuple(dataclasses.replace(c, east_m=c.east_m + 1e-6) for c in res.crowds)
+        return st, dataclasses.replace(res, crowds=crowds)
+
+    class Moved:
+        LocalizerState = now.LocalizerState
+        localize_step = staticmethod(moved)
+
+    tracks, frames = bench_localize.scene(20)
+    with pytest.raises(AssertionError):
+        bench_localize.same_results(before, Moved, tracks, frames, before.LocalizerConfig(), now.LocalizerConfig(), cycles=1)
+    n, worst = bench_localize.same_results(before, now, tracks, frames, before.LocalizerConfig(), now.LocalizerConfig(),
+                                           cycles=1)
+    assert n == 14 * len(frames) and worst <= 1e-9 and np.isfinite(worst)
