@@ -5,7 +5,8 @@ runs and its cores are shared, so only figures taken together compare):
 
 - ``now``: :func:`uvteam.localizer.localize_step`, the product;
 - ``before``: the same step as it was before it was made faster (frozen copies of the four modules in
-  :mod:`uvteam_ground.localize_reference`);
+  ``tests/reference/localize_4d30179``: test code, so only from a source checkout; an installed
+  package times ``now`` against ``cv2`` alone);
 - ``cv2``: the yardstick: ``cv2.findHomography`` (all landmarks, least squares) and
   ``cv2.perspectiveTransform`` of the points the step maps (each blob's centre and its box's corners).
   It does none of the step's work besides (no pairing, no outliers, no radius, no UGV claims).
@@ -26,10 +27,13 @@ from __future__ import annotations
 import argparse
 import datetime
 import gc
+import importlib
 import os
 import statistics
+import sys
 import time
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
@@ -113,15 +117,29 @@ def same_results(before, now, tracks, frames, cfg_before, cfg_now, cycles: int =
     return n, worst
 
 
+def _reference():
+    """The frozen step (``tests/reference/localize_4d30179``) when run from a source checkout, else None."""
+    tests = Path(__file__).resolve().parents[2] / "tests"
+    if not (tests / "reference" / "localize_4d30179" / "localizer.py").is_file():
+        return None
+    if str(tests) not in sys.path:
+        sys.path.insert(0, str(tests))
+    return importlib.import_module("reference.localize_4d30179.localizer")
+
+
 def _measure(n_blobs: int, rounds: int, frames_per_batch: int) -> dict:
     import cv2  # noqa: PLC0415
 
     from uvteam import localizer as now  # noqa: PLC0415
-    from uvteam_ground.localize_reference import localizer as before  # noqa: PLC0415
 
-    cfg_now, cfg_before = now.LocalizerConfig(), before.LocalizerConfig()
+    before = _reference()
+    cfg_now = now.LocalizerConfig()
     tracks, frames = scene(n_blobs)
-    n_cmp, worst = same_results(before, now, tracks, frames, cfg_before, cfg_now, cycles=2 if n_blobs > 1000 else 3)
+    n_cmp, worst = 0, float("nan")
+    if before is not None:
+        cfg_before = before.LocalizerConfig()
+        n_cmp, worst = same_results(before, now, tracks, frames, cfg_before, cfg_now,
+                                    cycles=2 if n_blobs > 1000 else 3)
     # what the yardstick gets per frame: the landmarks (pixels and where the fixes put them), the blobs' points
     yard = []
     for f in frames:
@@ -130,17 +148,21 @@ def _measure(n_blobs: int, rounds: int, frames_per_batch: int) -> dict:
         box = f.blobs.xyxy_px
         pts = np.vstack([f.blobs.xy_px, box[:, [0, 1]], box[:, [2, 1]], box[:, [2, 3]], box[:, [0, 3]]])
         yard.append((f.landmarks.xy_px.copy(), en, pts.reshape(-1, 1, 2)))
-    states = {"before": before.LocalizerState(), "now": now.LocalizerState()}
-    steps = {"before": (before.localize_step, cfg_before), "now": (now.localize_step, cfg_now)}
-    per_step: dict[str, list[float]] = {"before": [], "now": [], "cv2": []}      # wall clock, us
-    cpu_step: dict[str, list[float]] = {"before": [], "now": [], "cv2": []}      # this process's CPU time, us
-    order = ["before", "now", "cv2"]
+    states = {"now": now.LocalizerState()}
+    steps = {"now": (now.localize_step, cfg_now)}
+    order = ["now", "cv2"]
+    if before is not None:
+        states["before"] = before.LocalizerState()
+        steps["before"] = (before.localize_step, cfg_before)
+        order.insert(0, "before")
+    per_step: dict[str, list[float]] = {k: [] for k in order}      # wall clock, us
+    cpu_step: dict[str, list[float]] = {k: [] for k in order}      # this process's CPU time, us
     cycle = 0
     for r in range(rounds + 1):                       # round 0 warms up and is not counted
         tr, fr = shifted(tracks, frames, cycle)
         cycle += 1
         fr = fr[:frames_per_batch]
-        for what in order[r % 3:] + order[:r % 3]:      # who goes first rotates
+        for what in order[r % len(order):] + order[:r % len(order)]:      # who goes first rotates
             gc.collect()
             t0, c0 = time.perf_counter(), time.process_time()
             if what == "cv2":
@@ -155,12 +177,13 @@ def _measure(n_blobs: int, rounds: int, frames_per_batch: int) -> dict:
             if r:
                 per_step[what].append((time.perf_counter() - t0) / len(fr) * 1e6)
                 cpu_step[what].append((time.process_time() - c0) / len(fr) * 1e6)
+    nan = float("nan")
     med = {k: statistics.median(v) for k, v in per_step.items()}
     cpu = {k: statistics.median(v) for k, v in cpu_step.items()}
-    speedup = statistics.median(b / n for b, n in zip(per_step["before"], per_step["now"]))
+    speedup = statistics.median(b / n for b, n in zip(per_step["before"], per_step["now"])) if before else nan
     vs_cv2 = statistics.median(n / c for n, c in zip(per_step["now"], per_step["cv2"]))
-    return {"blobs": n_blobs, "now_us": med["now"], "before_us": med["before"], "cv2_us": med["cv2"],
-            "now_cpu_us": cpu["now"], "before_cpu_us": cpu["before"], "cv2_cpu_us": cpu["cv2"],
+    return {"blobs": n_blobs, "now_us": med["now"], "before_us": med.get("before", nan), "cv2_us": med["cv2"],
+            "now_cpu_us": cpu["now"], "before_cpu_us": cpu.get("before", nan), "cv2_cpu_us": cpu["cv2"],
             "now_q10_us": float(np.quantile(per_step["now"], 0.1)), "now_q90_us": float(np.quantile(per_step["now"], 0.9)),
             "speedup": speedup, "now_over_cv2": vs_cv2, "crowds_compared": n_cmp, "max_diff_m": worst}
 
@@ -189,8 +212,9 @@ def bench_localize(rounds: int = 30, big_rounds: int = 5, blobs: tuple[int, ...]
               f"before {r['before_us']:9.1f} us, cv2 findHomography+perspectiveTransform {r['cv2_us']:8.1f} us")
         print(f"  {'':6s}        CPU time: now {r['now_cpu_us']:.1f} us, before {r['before_cpu_us']:.1f} us, "
               f"cv2 {r['cv2_cpu_us']:.1f} us")
-        print(f"  {'':6s}        before/now {r['speedup']:.2f}x, now/cv2 {r['now_over_cv2']:.2f}x; same results on "
-              f"{r['crowds_compared']} crowds (largest difference {r['max_diff_m']:.1e} m)")
+        same = (f"same results on {r['crowds_compared']} crowds (largest difference {r['max_diff_m']:.1e} m)"
+                if r["crowds_compared"] else "no 'before' (tests/reference is in a source checkout only)")
+        print(f"  {'':6s}        before/now {r['speedup']:.2f}x, now/cv2 {r['now_over_cv2']:.2f}x; {same}")
     return out
 
 

@@ -7,7 +7,7 @@ import pytest
 
 from uvteam import localizer as now
 from uvteam_ground import bench_localize
-from uvteam_ground.localize_reference import localizer as before
+from reference.localize_4d30179 import localizer as before
 
 
 def test_the_benchmark_times_both_steps_and_the_yardstick(capsys):

@@ -1,6 +1,6 @@
 """The localizer step gives what the step gave before it was made faster, on every path it has: each
 frame of many random scenes runs through the product (:mod:`uvteam.localizer`) and through a frozen
-copy of the step as it was (:mod:`uvteam_ground.localize_reference`, commit 4d30179), and both must
+copy of the step as it was (tests/reference/localize_4d30179, commit 4d30179), and both must
 agree to 1e-9 m. The recorded steps (test_localizer_golden.py) are real runs but take few paths (no
 pose fallback, hold, suspect fit, labelled blobs, plans, greedy solver or color coordinates); these
 scenes take all of them. (Equal means: every discrete outcome the same; values to 1e-9 m, or to 1e-10 of
@@ -16,8 +16,8 @@ from uvteam.camera import CameraPose, PinholeCamera, project
 from uvteam.geo import LocalFrame
 from uvteam.messages import CameraPoseReport
 from uvteam.pose import pose_prior
-from uvteam_ground.localize_reference import homography as hom_before
-from uvteam_ground.localize_reference import localizer as before
+from reference.localize_4d30179 import homography as hom_before
+from reference.localize_4d30179 import localizer as before
 
 CAM = PinholeCamera(1280, 720, 78.0)
 FRAME = LocalFrame(31.4850, -111.5440)
