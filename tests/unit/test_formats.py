@@ -277,6 +277,14 @@ def test_cot_vehicle_event(vehicle, want_type, want_course):
     assert float(ev.find("detail/track").get("course")) == want_course
 
 
+def test_cot_vehicle_ce_keeps_an_rtk_fix_above_zero():
+    # A 2 cm RTK fix once went out as ce="0.0": a perfect position, which no receiver has.
+    p = Picture("demo", max_age_s=5.0)
+    p.add_fix(Fix("ugv1", T0, LAT, LON, 1300.0, 90.0, 0.02, 0.0, 0.0))
+    _, _, pt = _check_event(cot.vehicle_event(p.snapshot(T0).vehicles[0], stale_s=10.0))
+    assert pt["ce"] == 0.02
+
+
 def test_cot_rejects_a_stale_time_not_after_start():
     with pytest.raises(ValueError, match="stale_s"):
         cot.crowd_event(_picture().snapshot(T0 + 1.0).crowds[0], stale_s=0.0)

@@ -56,7 +56,7 @@ def _event(uid: str, cot_type: str, how: str, stamp_s: float, stale_s: float, la
     ev = ET.Element("event", {"version": "2.0", "uid": uid, "type": cot_type, "how": how, "time": t, "start": t,
                               "stale": iso8601(stamp_s + stale_s)})
     ET.SubElement(ev, "point", {"lat": f"{lat_deg:.7f}", "lon": f"{lon_deg:.7f}", "hae": f"{hae_m:.1f}",
-                                "ce": f"{ce_m:.1f}", "le": f"{le_m:.1f}"})
+                                "ce": f"{ce_m:.2f}", "le": f"{le_m:.1f}"})   # cm: an RTK fix is not 0.0
     detail = ET.SubElement(ev, "detail")
     ET.SubElement(detail, "contact", {"callsign": callsign})
     ET.SubElement(detail, "track", {"course": f"{course_deg:.1f}", "speed": f"{speed_m_s:.2f}"})
