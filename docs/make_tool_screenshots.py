@@ -10,21 +10,31 @@ Then:
   docs/tools/qgis-bridge-outputs.png;
 - GDAL's `ogrinfo` reads the same files; its summary goes to docs/tools/ogrinfo.txt;
 - MAVProxy (a MAVLink ground station) receives the ADSB_VEHICLE traffic; its console (`watch
-  ADSB_VEHICLE`, `adsb status`, `status ADSB_VEHICLE`) goes to docs/tools/mavproxy-adsb.txt;
+  ADSB_VEHICLE`, `adsb status`, `status ADSB_VEHICLE`) goes to docs/tools/mavproxy-adsb.txt; its `map`
+  module (wxPython, on a virtual X display: Xvfb) draws the same traffic, captured with Pillow's
+  ImageGrab to docs/tools/mavproxy-map.png. No internet here, so the map tiles are MAVProxy's
+  "Unavailable" placeholders. MAVProxy's adsb module labels a vehicle with its callsign only once it has
+  its own vehicle's GLOBAL_POSITION_INT (in the field, the autopilot's); there is no MAVLink autopilot
+  on this link in the demo, so this script stands in for it: it relays the UGV positions the bridge
+  wrote to the GeoJSON as HEARTBEAT (MAV_TYPE_GROUND_ROVER) + GLOBAL_POSITION_INT, ugv<n> as system
+  id n (the bridge's own ADSB_VEHICLE and HEARTBEAT are sent with system id 1, component 191);
 - PyTAK (with takproto, which turns CoT XML into TAK Protocol protobuf) receives the CoT datagrams;
   what it parsed goes to docs/tools/pytak-cot.txt.
 
 None of these programs is a dependency of uvteam. Install them on the side (Debian 12, as root):
 
     apt-get install -y qgis python3-qgis gdal-bin
-    python3 -m venv /tmp/mavproxy-venv && /tmp/mavproxy-venv/bin/pip install MAVProxy
+    apt-get install -y xvfb python3-wxgtk4.0        # X server for MAVProxy's map, and Debian's wxPython
+    /usr/bin/python3 -m venv --system-site-packages /tmp/mavproxy-venv   # so it sees Debian's wx
+    /tmp/mavproxy-venv/bin/pip install MAVProxy     # MAVProxy 1.8.75, with pymavlink; Pillow for ImageGrab
     python3 -m venv /tmp/pytak-venv && /tmp/pytak-venv/bin/pip install pytak takproto
 
 and run, from the repository root:
 
     .venv/bin/python docs/make_tool_screenshots.py [--duration 30] [--out docs/tools]
 
-A missing program is reported and its part skipped. The script calls itself with Debian's
+A missing program is reported and its part skipped (no Xvfb, or no wx for the MAVProxy venv's Python:
+no map, the console part still runs). The script calls itself with Debian's
 /usr/bin/python3 for the QGIS part (python3-qgis is built for it) and with the PyTAK venv's Python for
 the CoT receiver, so this file imports only the standard library at the top.
 """
@@ -66,17 +76,25 @@ def run(args: argparse.Namespace) -> int:
     procs: list[subprocess.Popen] = []
 
     mavproxy = shutil.which("mavproxy.py", path=f"{args.mavproxy_venv}/bin")
-    mp = mp_log = None
+    mp_py = str(Path(args.mavproxy_venv) / "bin" / "python")
+    mp = mp_log = display = relay = None
     if mavproxy:
+        display = _xvfb(mp_py, procs)
         mp_log = open(work / "mavproxy.txt", "w")
         # --target-system 1: MAVProxy hands a module only the packets of its target system, which it
         # otherwise learns from an autopilot's HEARTBEAT (there is none here; in the field the bridge
         # sends with the autopilot's system id, 1 by default, exactly as for QGC)
         mp = subprocess.Popen([*nice, mavproxy, f"--master=udpin:127.0.0.1:{mav_port}", "--nowait",
-                               "--target-system", "1", "--state-basedir", str(work), "--default-modules", "adsb"],
+                               "--target-system", "1", "--state-basedir", str(work),
+                               "--default-modules", "adsb,map" if display else "adsb"],
                               stdin=subprocess.PIPE, stdout=mp_log, stderr=subprocess.STDOUT, text=True,
-                              cwd=work, start_new_session=True, env=dict(os.environ, PYTHONUNBUFFERED="1"))
+                              cwd=work, start_new_session=True, env=_mp_env(display, work))
         procs.append(mp)
+        if display:
+            relay = subprocess.Popen([*nice, mp_py, __file__, "--ugv-relay", str(mav_port), "--seconds",
+                                      str(args.duration + 2), "--geojson", str(files["geojson"])],
+                                     start_new_session=True)
+            procs.append(relay)
     else:
         print(f"no MAVProxy in {args.mavproxy_venv}: the MAVLink part is skipped", file=sys.stderr)
 
@@ -110,7 +128,8 @@ def run(args: argparse.Namespace) -> int:
              "--duration", str(args.duration + 2)], start_new_session=True)
         procs.append(bridge)
         if mp is not None:
-            _drive_mavproxy(mp, watch_at_s=args.duration * 0.6)
+            _drive_mavproxy(mp, watch_at_s=args.duration * 0.6, display=display, py=mp_py,
+                            geojson=files["geojson"], png=out / "mavproxy-map.png")
         demo_out = demo.communicate(timeout=args.duration + 120)[0]
         print(demo_out[-1500:], flush=True)
         bridge.wait(timeout=30)
@@ -138,14 +157,69 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _drive_mavproxy(mp: subprocess.Popen, watch_at_s: float) -> None:
-    """Type commands into MAVProxy's console while the crowds are live."""
+def _xvfb(mp_py: str, procs: list) -> str | None:
+    """A virtual X display for MAVProxy's map (wxPython), or None (reported) when there is no Xvfb or no
+    wx for the MAVProxy venv's Python."""
+    xvfb = shutil.which("Xvfb")
+    if not xvfb:
+        print("no Xvfb (apt-get install xvfb): MAVProxy's map is skipped", file=sys.stderr)
+        return None
+    if subprocess.run([mp_py, "-c", "import wx, PIL.ImageGrab"], capture_output=True).returncode != 0:
+        print(f"no wxPython/Pillow for {mp_py} (apt-get install python3-wxgtk4.0 and a venv with "
+              "--system-site-packages): MAVProxy's map is skipped", file=sys.stderr)
+        return None
+    r, w = os.pipe()
+    x = subprocess.Popen([xvfb, "-displayfd", str(w), "-screen", "0", "1024x768x24", "-nolisten", "tcp", "-noreset"],
+                         pass_fds=(w,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    os.close(w)
+    procs.append(x)
+    with os.fdopen(r) as f:
+        number = f.readline().strip()
+    if not number:
+        print("Xvfb did not start: MAVProxy's map is skipped", file=sys.stderr)
+        return None
+    return f":{number}"
+
+
+def _mp_env(display: str | None, work: Path) -> dict:
+    env = dict(os.environ, PYTHONUNBUFFERED="1", HOME=str(work))   # HOME: the map's .tilecache
+    if display:
+        # offline: the tile downloader fails at once on a closed local port instead of waiting on DNS
+        env.update(DISPLAY=display, http_proxy="http://127.0.0.1:9", https_proxy="http://127.0.0.1:9",
+                   HTTP_PROXY="http://127.0.0.1:9", HTTPS_PROXY="http://127.0.0.1:9", NO_AT_BRIDGE="1")
+    return env
+
+
+def _area(geojson: Path) -> tuple[float, float]:
+    """The mean position of the points in the bridge's GeoJSON (the demo's area when not yet written)."""
+    import json  # noqa: PLC0415
+    try:
+        pts = [f["geometry"]["coordinates"] for f in json.loads(geojson.read_text())["features"]
+               if f["geometry"]["type"] == "Point"]
+    except (OSError, ValueError, KeyError):
+        pts = []
+    if not pts:
+        return 31.4852, -111.5437
+    return sum(p[1] for p in pts) / len(pts), sum(p[0] for p in pts) / len(pts)
+
+
+def _drive_mavproxy(mp: subprocess.Popen, watch_at_s: float, display: str | None = None, py: str = "",
+                    geojson: Path | None = None, png: Path | None = None) -> None:
+    """Type commands into MAVProxy's console while the crowds are live (and set up, then capture, its map)."""
     def typed(line: str) -> None:
         mp.stdin.write(line + "\n")
         mp.stdin.flush()
 
     def script() -> None:
-        time.sleep(watch_at_s)
+        if display:
+            time.sleep(max(0.0, watch_at_s - 6))
+            lat, lon = _area(geojson)
+            typed("map follow 0")                  # it follows our vehicle (the relayed ugv1) otherwise
+            typed("map zoom 70")                   # ground width of the window, m
+            typed(f"map center {lat:.6f} {lon:.6f}")
+            time.sleep(6)
+        else:
+            time.sleep(watch_at_s)
         typed("watch ADSB_VEHICLE")
         time.sleep(2.5)
         typed("watch")
@@ -154,6 +228,12 @@ def _drive_mavproxy(mp: subprocess.Popen, watch_at_s: float) -> None:
         typed("status HEARTBEAT")
         typed("link")
         time.sleep(1.0)
+        if display:
+            grab = ("import sys; from PIL import ImageGrab; im = ImageGrab.grab(xdisplay=sys.argv[1]); "
+                    "im = im.crop(im.convert('L').getbbox() or (0, 0) + im.size); im.save(sys.argv[2]); "
+                    "print('wrote', sys.argv[2], im.size)")
+            r = subprocess.run([py, "-c", grab, display, str(png)], capture_output=True, text=True)
+            print((r.stdout + r.stderr).strip(), flush=True)
         mp.stdin.close()
 
     threading.Thread(target=script, daemon=True).start()
@@ -294,6 +374,45 @@ def cot_receive(port: int, seconds: float, out: str) -> int:
         lines += ["# one of them in full (protobuf text format):", str(next(iter(seen.values()))).rstrip()]
     Path(out).write_text("\n".join(lines) + "\n")
     return 0 if counts["parsed"] else 1
+
+
+# ---------------------------------------------------------------- UGV telemetry stand-in (pymavlink)
+
+def ugv_relay(port: int, seconds: float, geojson: str) -> int:
+    """Stand in for the UGVs' autopilots on MAVProxy's link: twice a second, the UGV positions the bridge
+    last wrote to its GeoJSON, sent as HEARTBEAT (MAV_TYPE_GROUND_ROVER) and GLOBAL_POSITION_INT, ugv<n>
+    from system id n, component 1 (MAVProxy's adsb module labels traffic only once it has one)."""
+    import json  # noqa: PLC0415
+
+    from pymavlink import mavutil  # noqa: PLC0415
+
+    links: dict[int, object] = {}
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        time.sleep(0.5)
+        try:
+            feats = json.loads(Path(geojson).read_text())["features"]
+        except (OSError, ValueError, KeyError):
+            continue
+        for f in feats:
+            p = f.get("properties", {})
+            m = re.fullmatch(r"ugv(\d+)", str(p.get("vehicle", "")))
+            if p.get("kind") != "vehicle" or not m or f["geometry"]["type"] != "Point":
+                continue
+            n = int(m.group(1))
+            if n not in links:
+                links[n] = mavutil.mavlink_connection(f"udpout:127.0.0.1:{port}", source_system=n,
+                                                      source_component=1)
+            mav = links[n].mav
+            lon, lat = f["geometry"]["coordinates"][:2]
+            alt_mm = int(p.get("alt_amsl_m", 0) * 1000)
+            mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GROUND_ROVER, mavutil.mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
+                               mavutil.mavlink.MAV_MODE_FLAG_AUTO_ENABLED, 10, mavutil.mavlink.MAV_STATE_ACTIVE)
+            mav.global_position_int_send(int(time.monotonic() * 1000) & 0xFFFFFFFF, round(lat * 1e7),
+                                         round(lon * 1e7), alt_mm, 0, round(p.get("v_north_m_s", 0) * 100),
+                                         round(p.get("v_east_m_s", 0) * 100), 0,
+                                         round(p.get("heading_deg", 0) * 100) % 36000)
+    return 0
 
 
 # ------------------------------------------------------------------------------------ QGIS rendering
@@ -464,12 +583,16 @@ def main() -> int:
     ap.add_argument("--seconds", type=float, default=30.0, help=argparse.SUPPRESS)
     ap.add_argument("--cot-out", help=argparse.SUPPRESS)
     ap.add_argument("--qgis-render", metavar="PNG", help=argparse.SUPPRESS)
+    ap.add_argument("--ugv-relay", type=int, metavar="PORT", help=argparse.SUPPRESS)
+    ap.add_argument("--geojson", help=argparse.SUPPRESS)
     ap.add_argument("specs", nargs="*", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.cot_receive:
         return cot_receive(args.cot_receive, args.seconds, args.cot_out)
     if args.qgis_render:
         return qgis_render(args.qgis_render, args.specs)
+    if args.ugv_relay:
+        return ugv_relay(args.ugv_relay, args.seconds, args.geojson)
     return run(args)
 
 
