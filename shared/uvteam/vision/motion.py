@@ -11,9 +11,11 @@ Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale``
    than ``TOP_UP_BELOW`` of ``max_corners`` are left; while the camera moves steadily (its last two
    motions agree), they are searched first where the last motion takes them, over one pyramid level,
    and only new corners need the forward-backward check (a followed one passed it and has been an
-   inlier since); a camera that jolts gets the full search and every corner checked;
+   inlier since); a camera that jolts gets the full search and every corner checked, and so does a
+   guided search whose fit explains fewer than half the corners;
 2. the camera's motion between the frames fitted robustly (RANSAC homography, or a partial affine
-   transform) and the previous frame warped onto the current one;
+   transform; a fit that explains fewer than half the tracked corners is a lost registration) and the
+   previous frame warped onto the current one;
 3. absolute difference, threshold, restricted to pixels both frames see;
 4. a motion history: the pixels that moved in the last ``history_s`` seconds, warped along with the
    camera so it stays registered, so that a crowd whose members move little per frame stays one blob
@@ -59,6 +61,7 @@ POOLED_LABEL_MIN_MERGE_PX = 8   # blobs joined over at least this many px are la
 POOLED_LABEL_MIN_SIDE_PX = 64
 NEAR_LEVELS = 1             # pyramid levels searched around where the last camera motion takes a corner
 STEADY_PX = 4.0             # ... when the last two motions agree this well (a level-1 search reaches ~2 windows)
+MIN_INLIER_FRACTION = 0.5   # a fit that explains fewer of the tracked corners is no camera motion
 TOP_UP_BELOW = 0.6          # corners followed from frame to frame are topped up below this fraction of max_corners
 
 __all__ = ["MotionConfig", "MotionResult", "Registration", "MotionDetector", "bounds_for_altitude", "compensate"]
@@ -253,6 +256,11 @@ def _compensate(prev: np.ndarray, curr: np.ndarray, cfg: MotionConfig, p0: np.nd
     return Registration(M, len(a), int(inl.sum()), rms), b[inl].reshape(-1, 1, 2).astype(np.float32)
 
 
+def _explains(reg: Registration) -> bool:
+    """Whether a fit is the camera's motion: most tracked corners agree with it (the ground fills the view)."""
+    return reg.H_curr_from_prev is not None and reg.n_inliers >= MIN_INLIER_FRACTION * reg.n_tracked
+
+
 def _warper(M: np.ndarray, w: int, h: int):
     """A warp by M for (w, h) images: affine (2.5x faster) when M's projective part moves no pixel of
     the frame by more than 0.05 px, as between two frames of a hovering camera; else perspective.
@@ -404,6 +412,12 @@ class MotionDetector:
         guess = _steady(self._last_H, self._older_H, *prev_c.shape[::-1])
         # a camera that jolts (gimbal jitter, a new view) gets every corner checked forward and back
         reg, self._kept = _compensate(prev_c, curr_c, self.cfg, p0, n_followed if guess is not None else 0, guess)
+        if guess is not None and not _explains(reg):
+            # it jolted off its steady course: the guided search found wrong places, which a fit on a
+            # few of them took for the camera's motion (then every pixel "moves"): search in full
+            reg, self._kept = _compensate(prev_c, curr_c, self.cfg, p0)
+        if reg.H_curr_from_prev is not None and not _explains(reg):
+            reg, self._kept = Registration.failed(reg.n_tracked, reg.n_inliers), None
         self._last_H, self._older_H = reg.H_curr_from_prev, self._last_H
         c = min(1.0, self.cfg.compensate_max_scale / self.cfg.process_scale)
         if reg.H_curr_from_prev is None or c >= 1.0:
