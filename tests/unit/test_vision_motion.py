@@ -184,6 +184,27 @@ def test_the_trails_of_two_vehicles_side_by_side_are_no_crowd():
     assert np.abs(blobs.xy_px - np.array([a, b])[np.argsort(np.argsort(blobs.carved))]).max() < 1.0
 
 
+def test_the_trails_of_two_vehicles_driving_apart_are_no_crowd():
+    # two vehicles in one lane driving apart, nose to nose at first: each one's 0.4 s trail points at
+    # the other and the two trails join into one group of ~1600 px, more than a crowd's 1200 px (field
+    # seed 4, t 27.5 s: UGVs 3 and 4 reported as a crowd between them). Followed from frame to frame
+    # (carve ids), each vehicle's path over the history is carved, not only the disc where it is.
+    ground = texture(720, 1280, seed=4)
+    cfg = MotionConfig(merge_px=31, min_area_px=1200.0, speckle="neighbours", process_scale=1.0)
+    followed, unfollowed = MotionDetector(cfg), MotionDetector(cfg)
+    for k in range(6):
+        img = ground.copy()
+        a, b = (650 - 12 * k, 360), (670 + 12 * k, 360)
+        for vx, vy in (a, b):
+            cv2.rectangle(img, (vx - 12, vy - 8), (vx + 12, vy + 8), (60, 60, 60), -1)
+        pts = np.array([a, b], float)
+        with_ids = followed.update(img, 0.1 * k, pts, 22.0, ("ugv3", "ugv4"))
+        without = unfollowed.update(img, 0.1 * k, pts, 22.0)
+    assert sorted(with_ids.carved.tolist()) == [0, 1]
+    assert np.abs(with_ids.xy_px - pts[np.argsort(np.argsort(with_ids.carved))]).max() < 1.0
+    assert sorted(without.carved.tolist()) == [-1, 0, 1]          # the joined trails: a crowd
+
+
 def _walkers_frames(groups, steps=6, seed=4):
     """A static camera over texture; each group is (centre xy, rows, cols, spacing px, velocity px/frame)."""
     ground = texture(720, 1280, seed=seed)

@@ -42,6 +42,7 @@ by size and velocity as functions of altitude. Time is passed in; nothing here r
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import cv2
@@ -62,6 +63,7 @@ POOLED_LABEL_MIN_SIDE_PX = 64
 NEAR_LEVELS = 1             # pyramid levels searched around where the last camera motion takes a corner
 STEADY_PX = 4.0             # ... when the last two motions agree this well (a level-1 search reaches ~2 windows)
 MIN_INLIER_FRACTION = 0.5   # a fit that explains fewer of the tracked corners is no camera motion
+TRAIL_MAX_RADII = 1.5       # a vehicle's trail is carved at most this many carve radii behind it
 TOP_UP_BELOW = 0.6          # corners followed from frame to frame are topped up below this fraction of max_corners
 
 __all__ = ["MotionConfig", "MotionResult", "Registration", "MotionDetector", "bounds_for_altitude", "compensate"]
@@ -296,6 +298,17 @@ def _warped_box(M: np.ndarray, box: tuple[int, int, int, int], w: int, h: int) -
     return (x0, y0, x1, y1) if x1 > x0 and y1 > y0 else None
 
 
+def _d2_to_segment(gx: np.ndarray, gy: np.ndarray, a, b) -> np.ndarray:
+    """Squared distance of the grid (open grids ``gx``, ``gy``) to the segment a-b (a point when a == b)."""
+    ex, ey = b[0] - a[0], b[1] - a[1]
+    dx, dy = gx - a[0], gy - a[1]
+    ll = ex * ex + ey * ey
+    if ll <= 1e-12:
+        return dx * dx + dy * dy
+    t = np.clip((dx * ex + dy * ey) / ll, 0.0, 1.0)
+    return (dx - t * ex) ** 2 + (dy - t * ey) ** 2
+
+
 def _close(mask: np.ndarray, kernel: np.ndarray) -> np.ndarray:
     """A closing of a blob's crop that does not join it to the crop's edge (padded with nothing moving)."""
     pad = kernel.shape[0]
@@ -315,6 +328,7 @@ class MotionDetector:
         self._last_H: np.ndarray | None = None  # the last camera motion, in the fit's pixels
         self._older_H: np.ndarray | None = None  # the one before
         self._age_box: tuple[int, int, int, int] | None = None   # where the motion history holds anything
+        self._carved: dict = {}                 # carve id -> its point in the previous frame (processed px)
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
         # a square closing: it joins members up to merge_px apart, and costs the same at any size
         self._k_close = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.merge_px, cfg.merge_px))
@@ -326,6 +340,7 @@ class MotionDetector:
     def reset(self) -> None:
         self._prev = self._prev_c = self._stamp_s = self._age = self._busy = self._kept = self._age_box = None
         self._last_H = self._older_H = None
+        self._carved = {}
 
     def moved_near(self, xy_px: np.ndarray) -> np.ndarray | None:
         """(N,) bool: whether each full-resolution point lies on what moved in the previous frame (its
@@ -341,7 +356,7 @@ class MotionDetector:
         return out
 
     def update(self, frame: np.ndarray, stamp_s: float, carve_xy_px: np.ndarray | None = None,
-               carve_radius_px: float = 0.0) -> MotionResult:
+               carve_radius_px: float = 0.0, carve_ids: Sequence | None = None) -> MotionResult:
         """Blobs moving in ``frame``. ``carve_xy_px`` (full-resolution points, e.g. color-detected
         vehicles) split a blob that holds one of them and is more than the carved disc: the moving
         pixels within ``carve_radius_px`` of the point become a blob of their own, the rest another, so
@@ -350,6 +365,13 @@ class MotionDetector:
         side by side). Such a vehicle's blob is centred on its point, since its pixels are mixed with the
         crowd's. A blob that is a vehicle's (carved, or holding its point with no more than a vehicle's
         worth) says which point in ``MotionResult.carved``, and needs no crowd-sized area.
+
+        ``carve_ids`` (one per point, e.g. the UGV's id) let a point be followed from frame to frame: what
+        is carved is then the vehicle's path over the motion history, not only the disc where it is now,
+        since a moving vehicle leaves its trail in the history (two vehicles' trails joined once made a
+        crowd's area between them). The path comes from the point's motion against the ground since the
+        last frame (its previous position carried over by the camera's motion), at most
+        ``TRAIL_MAX_RADII`` carve radii long.
 
         The phases are the module docstring's steps: :meth:`_scaled` (the processed copies),
         :meth:`_register` (1-2), :meth:`_moving` (3), :meth:`_history` (4), :meth:`_components` (5),
@@ -368,6 +390,7 @@ class MotionDetector:
         if reg.H_curr_from_prev is None:
             self._age[:] = 255  # lost registration: the history is no longer aligned
             self._age_box = None
+            self._carved = {}
             return MotionResult.empty(reg)
         h, w = curr.shape
         warp = _warper(reg.H_curr_from_prev, w, h)
@@ -379,17 +402,37 @@ class MotionDetector:
         s = self.cfg.process_scale
         carve = np.empty((0, 2)) if carve_xy_px is None else (np.asarray(carve_xy_px, float).reshape(-1, 2) + 0.5) * s - 0.5
         r2 = (carve_radius_px * s) ** 2
+        tails = self._tails(carve, carve_ids, reg.H_curr_from_prev, dt_s, carve_radius_px * s)
         comps = [part for x, y, comp in self._components(joined, carve)
-                 for part in self._split(comp, recent[y:y + comp.shape[0], x:x + comp.shape[1]], x, y, carve, r2, 1.0 / s)]
+                 for part in self._split(comp, recent[y:y + comp.shape[0], x:x + comp.shape[1]], x, y, carve, tails,
+                                         r2, 1.0 / s)]
         xy, boxes, areas, carved = [], [], [], []
         for x, y, bw, bh, comp in comps:
-            for row in self._measure(comp, recent[y:y + bh, x:x + bw], moving[y:y + bh, x:x + bw], x, y, carve, r2):
+            for row in self._measure(comp, recent[y:y + bh, x:x + bw], moving[y:y + bh, x:x + bw], x, y, carve,
+                                     tails, r2):
                 xy.append(row[0])
                 boxes.append(row[1])
                 areas.append(row[2])
                 carved.append(row[3])
         blobs = Blobs(np.array(xy, float).reshape(-1, 2), np.array(boxes, float).reshape(-1, 4), np.array(areas, float))
         return MotionResult(blobs, np.array(carved, int), reg)
+
+    def _tails(self, carve: np.ndarray, ids: Sequence | None, H: np.ndarray, dt_s: float, r_px: float) -> np.ndarray:
+        """(N, 2) where each carve point's trail starts: the point itself, or, for a point followed from the
+        last frame, where its motion against the ground puts it ``history_s`` ago (processed px)."""
+        tails = carve.copy()
+        last, self._carved = self._carved, ({} if ids is None else dict(zip(ids, carve.tolist())))
+        if ids is None or dt_s <= 0.0 or not last:
+            return tails
+        back = self.cfg.history_s / dt_s
+        for k, cid in enumerate(ids):
+            if cid in last:
+                q = H @ (last[cid][0], last[cid][1], 1.0)
+                step = carve[k] - q[:2] / q[2]
+                n = float(np.hypot(*step)) * back
+                if n > 0.0:
+                    tails[k] = carve[k] - step * (back * min(1.0, TRAIL_MAX_RADII * r_px / n))
+        return tails
 
     def _scaled(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Grey at ``process_scale`` (the processed pixels), and the copy the camera motion is fitted on."""
@@ -513,7 +556,7 @@ class MotionDetector:
         return out
 
     def _measure(self, comp: np.ndarray, recent: np.ndarray, moving: np.ndarray, x: int, y: int,
-                 carve: np.ndarray, r2: float) -> list[tuple[list, list, float, int]]:
+                 carve: np.ndarray, tails: np.ndarray, r2: float) -> list[tuple[list, list, float, int]]:
         """The blobs of one (split) component at (x, y): (centre, box, area, carve point or -1) each, in
         full-resolution pixels. A component holding carve points is cut around them (see :meth:`update`)."""
         cfg = self.cfg
@@ -528,7 +571,7 @@ class MotionDetector:
             # each pixel within the radius of a vehicle's point is that (nearest) vehicle's; what is
             # left is a crowd only if one group of it is crowd-sized, else the vehicles' trails
             gy, gx = np.ogrid[y:y + bh, x:x + bw]
-            d2 = np.stack([(gx - carve[ci, 0]) ** 2 + (gy - carve[ci, 1]) ** 2 for ci in inside])
+            d2 = np.stack([_d2_to_segment(gx, gy, carve[ci], tails[ci]) for ci in inside])
             nearest = d2.argmin(0)
             near = d2.min(0) <= r2
             parts = []
@@ -567,8 +610,8 @@ class MotionDetector:
         k, lab = cv2.connectedComponents(_close(rest.view(np.uint8) * np.uint8(255), self._k_close), connectivity=8)
         return bool(k > 1 and np.bincount(lab[rest], minlength=k)[1:].max() * inv * inv >= self.cfg.min_area_px)
 
-    def _split(self, comp: np.ndarray, recent: np.ndarray, x: int, y: int, carve: np.ndarray, r2: float,
-               inv: float) -> list[tuple[int, int, int, int, np.ndarray]]:
+    def _split(self, comp: np.ndarray, recent: np.ndarray, x: int, y: int, carve: np.ndarray, tails: np.ndarray,
+               r2: float, inv: float) -> list[tuple[int, int, int, int, np.ndarray]]:
         """One joined component (its box at x, y) as one or more crowds' components (step 6)."""
         cfg = self.cfg
         bh, bw = comp.shape
@@ -582,9 +625,9 @@ class MotionDetector:
         # a vehicle is no crowd's core; with one in the blob only the finest kernel splits it: removing
         # the vehicle cuts off the walkers beyond it, which a coarser kernel would make a crowd of their own
         if r2 > 0 and len(carve):
-            for cx, cy in carve - (x, y):
+            for (cx, cy), tail in zip(carve - (x, y), tails - (x, y)):
                 if -1 <= cx <= bw and -1 <= cy <= bh:
-                    m8[(gx - cx) ** 2 + (gy - cy) ** 2 <= r2] = 0
+                    m8[_d2_to_segment(gx, gy, (cx, cy), tail) <= r2] = 0
                     kernels = self._k_splits[-1:]
         pooled = kernels[-1].shape[0] >= POOLED_LABEL_MIN_MERGE_PX and min(bh, bw) >= POOLED_LABEL_MIN_SIDE_PX
         if pooled:   # as for labelling (step 5): kernels of 8 px and more close a 2x2 max-pooled copy

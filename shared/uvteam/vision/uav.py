@@ -122,7 +122,7 @@ class UavVision:
         cands = label_candidates(frame_bgr, self._lm_cfg, self.cfg.colors, windows)
         chosen, refused = self._choose(cands, stamp_s, px_per_m, expect)
         lms = Landmarks.from_dict(chosen)
-        motion = self._motion.update(frame_bgr, stamp_s, lms.xy_px, self.cfg.vehicle_radius_m * px_per_m)
+        motion = self._motion.update(frame_bgr, stamp_s, lms.xy_px, self.cfg.vehicle_radius_m * px_per_m, lms.ugv)
         b = motion.blobs
         blobs = Blobs(b.xy_px, b.xyxy_px, b.area_px, tuple(lms.ugv[c] if c >= 0 else "" for c in motion.carved))
         return UavFrameResult(stamp_s, lms, blobs, motion.registration, refused)
