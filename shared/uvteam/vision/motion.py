@@ -328,7 +328,7 @@ class MotionDetector:
         self._last_H: np.ndarray | None = None  # the last camera motion, in the fit's pixels
         self._older_H: np.ndarray | None = None  # the one before
         self._age_box: tuple[int, int, int, int] | None = None   # where the motion history holds anything
-        self._carved: dict = {}                 # carve id -> its point in the previous frame (processed px)
+        self._followed: dict = {}                 # carve id -> its point in the previous frame (processed px)
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
         # a square closing: it joins members up to merge_px apart, and costs the same at any size
         self._k_close = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.merge_px, cfg.merge_px))
@@ -340,7 +340,7 @@ class MotionDetector:
     def reset(self) -> None:
         self._prev = self._prev_c = self._stamp_s = self._age = self._busy = self._kept = self._age_box = None
         self._last_H = self._older_H = None
-        self._carved = {}
+        self._followed = {}
 
     def moved_near(self, xy_px: np.ndarray) -> np.ndarray | None:
         """(N,) bool: whether each full-resolution point lies on what moved in the previous frame (its
@@ -390,7 +390,7 @@ class MotionDetector:
         if reg.H_curr_from_prev is None:
             self._age[:] = 255  # lost registration: the history is no longer aligned
             self._age_box = None
-            self._carved = {}
+            self._followed = {}
             return MotionResult.empty(reg)
         h, w = curr.shape
         warp = _warper(reg.H_curr_from_prev, w, h)
@@ -421,7 +421,7 @@ class MotionDetector:
         """(N, 2) where each carve point's trail starts: the point itself, or, for a point followed from the
         last frame, where its motion against the ground puts it ``history_s`` ago (processed px)."""
         tails = carve.copy()
-        last, self._carved = self._carved, ({} if ids is None else dict(zip(ids, carve.tolist())))
+        last, self._followed = self._followed, ({} if ids is None else dict(zip(ids, carve.tolist())))
         if ids is None or dt_s <= 0.0 or not last:
             return tails
         back = self.cfg.history_s / dt_s
