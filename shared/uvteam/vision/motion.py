@@ -329,6 +329,7 @@ class MotionDetector:
         self._older_H: np.ndarray | None = None  # the one before
         self._age_box: tuple[int, int, int, int] | None = None   # where the motion history holds anything
         self._followed: dict = {}                 # carve id -> its point in the previous frame (processed px)
+        self._pending: tuple | None = None      # (stamp, prev, curr, dt, registration) from register()
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
         # a square closing: it joins members up to merge_px apart, and costs the same at any size
         self._k_close = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.merge_px, cfg.merge_px))
@@ -341,14 +342,22 @@ class MotionDetector:
         self._prev = self._prev_c = self._stamp_s = self._age = self._busy = self._kept = self._age_box = None
         self._last_H = self._older_H = None
         self._followed = {}
+        self._pending = None
 
     def moved_near(self, xy_px: np.ndarray) -> np.ndarray | None:
         """(N,) bool: whether each full-resolution point lies on what moved in the previous frame (its
-        blobs, widened by the joining kernel); None before there is a previous frame."""
+        blobs, widened by the joining kernel); None before there is a previous frame. After
+        :meth:`register`, the points are this frame's and are carried back onto the previous frame by the
+        camera's motion (a camera that jolts 30 px between two frames otherwise moves every label off
+        its vehicle's blob)."""
         if self._busy is None:
             return None
         s = self.cfg.process_scale
-        p = np.round((np.asarray(xy_px, float).reshape(-1, 2) + 0.5) * s - 0.5).astype(int)
+        q = (np.asarray(xy_px, float).reshape(-1, 2) + 0.5) * s - 0.5
+        reg = self._pending[4] if self._pending is not None else None
+        if reg is not None and reg.H_curr_from_prev is not None and len(q):
+            q = cv2.perspectiveTransform(q.reshape(-1, 1, 2), np.linalg.inv(reg.H_curr_from_prev)).reshape(-1, 2)
+        p = np.round(q).astype(int)
         h, w = self._busy.shape
         ok = (p[:, 0] >= 0) & (p[:, 0] < w) & (p[:, 1] >= 0) & (p[:, 1] < h)
         out = np.zeros(len(p), bool)
@@ -376,17 +385,12 @@ class MotionDetector:
         The phases are the module docstring's steps: :meth:`_scaled` (the processed copies),
         :meth:`_register` (1-2), :meth:`_moving` (3), :meth:`_history` (4), :meth:`_components` (5),
         :meth:`_split` (6) and :meth:`_measure` (the blobs of each component)."""
-        curr, curr_c = self._scaled(frame)
-        prev, self._prev = self._prev, curr
-        prev_c, self._prev_c = self._prev_c, curr_c
-        dt_s = stamp_s - self._stamp_s if self._stamp_s is not None else 0.0
-        self._stamp_s = stamp_s
-        busy, self._busy = self._busy, None
-        if prev is None or prev.shape != curr.shape:
-            self._age = np.full(curr.shape, 255, np.uint8)
-            self._kept = self._age_box = self._last_H = self._older_H = None
+        if self._pending is None or self._pending[0] != stamp_s:
+            self.register(frame, stamp_s)
+        _, prev, curr, dt_s, reg = self._pending
+        self._pending, self._busy = None, None
+        if reg is None:
             return MotionResult.empty()
-        reg = self._register(prev_c, curr_c, busy)
         if reg.H_curr_from_prev is None:
             self._age[:] = 255  # lost registration: the history is no longer aligned
             self._age_box = None
@@ -416,6 +420,27 @@ class MotionDetector:
                 carved.append(row[3])
         blobs = Blobs(np.array(xy, float).reshape(-1, 2), np.array(boxes, float).reshape(-1, 4), np.array(areas, float))
         return MotionResult(blobs, np.array(carved, int), reg)
+
+    def register(self, frame: np.ndarray, stamp_s: float) -> Registration | None:
+        """Steps 1-2 for ``frame`` ahead of :meth:`update`, which goes on from them when called with the
+        same stamp (and frame); meanwhile :meth:`moved_near` takes this frame's points. None for a first
+        frame (or one of another size), which has nothing to be registered with."""
+        if self._pending is not None and self._pending[0] == stamp_s:
+            return self._pending[4]
+        curr, curr_c = self._scaled(frame)
+        prev, self._prev = self._prev, curr
+        prev_c, self._prev_c = self._prev_c, curr_c
+        dt_s = stamp_s - self._stamp_s if self._stamp_s is not None else 0.0
+        self._stamp_s = stamp_s
+        reg = None
+        if prev is None or prev.shape != curr.shape:
+            self._age = np.full(curr.shape, 255, np.uint8)
+            self._kept = self._age_box = self._last_H = self._older_H = None
+            self._busy = None
+        else:
+            reg = self._register(prev_c, curr_c, self._busy)
+        self._pending = (stamp_s, prev, curr, dt_s, reg)
+        return reg
 
     def _tails(self, carve: np.ndarray, ids: Sequence | None, H: np.ndarray, dt_s: float, r_px: float) -> np.ndarray:
         """(N, 2) where each carve point's trail starts: the point itself, or, for a point followed from the

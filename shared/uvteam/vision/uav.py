@@ -120,6 +120,7 @@ class UavVision:
         expect = expect or {}
         windows = self._windows(stamp_s, px_per_m, expect)
         cands = label_candidates(frame_bgr, self._lm_cfg, self.cfg.colors, windows)
+        self._motion.register(frame_bgr, stamp_s)   # so that "on what moved" follows a jolting camera
         chosen, refused = self._choose(cands, stamp_s, px_per_m, expect)
         lms = Landmarks.from_dict(chosen)
         motion = self._motion.update(frame_bgr, stamp_s, lms.xy_px, self.cfg.vehicle_radius_m * px_per_m, lms.ugv)
