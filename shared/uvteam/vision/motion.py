@@ -593,8 +593,9 @@ class MotionDetector:
         centre_of: dict[int, tuple[float, float]] = {}
         inside = [ci for ci, (cx, cy) in enumerate(carve) if x <= cx < x + bw and y <= cy < y + bh] if r2 > 0 else []
         if inside:
-            # each pixel within the radius of a vehicle's point is that (nearest) vehicle's; what is
-            # left is a crowd only if one group of it is crowd-sized, else the vehicles' trails
+            # each pixel within the radius of a vehicle's point (of its path over the history, when
+            # followed) is that (nearest) vehicle's; what is left is a crowd only if one group of it is
+            # crowd-sized, else the vehicles' trails
             gy, gx = np.ogrid[y:y + bh, x:x + bw]
             d2 = np.stack([_d2_to_segment(gx, gy, carve[ci], tails[ci]) for ci in inside])
             nearest = d2.argmin(0)
