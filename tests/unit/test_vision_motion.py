@@ -47,9 +47,10 @@ def test_moving_camera_and_one_moving_object():
 
 def test_what_moved_follows_a_camera_that_jolts():
     # a vehicle (textured square) drives 4 px a frame under a still camera; then the camera jolts and
-    # the view moves 50 px (field seed 3, t 19.7 s: 30 px). Looked up where the vehicle's blob was in the last frame, the vehicle's
-    # new place is off it, and its roof label was refused as "not on what moved" (4 of 6 UGVs; their
-    # blobs became crowds). Registered first, the point is carried back by the camera's motion.
+    # the view moves 50 px (field seed 3, t 19.7 s: 30 px). Looked up where the vehicle's blob was in
+    # the last frame, the vehicle's new place is off it, and its roof label was refused as "not on what
+    # moved" (4 of 6 UGVs; their blobs became crowds). Registered first, the point is carried back by
+    # the camera's motion.
     ground = texture(1000, 1600, seed=5)
     patch = 255 - texture(24, 24, seed=9)
 
@@ -69,7 +70,8 @@ def test_what_moved_follows_a_camera_that_jolts():
     assert reg is not None and abs(reg.H_curr_from_prev[0, 2] * 2 - 50) < 1.0   # processed at half scale
     assert registered.moved_near(np.array([xy]))[0]
     a, b = plain.update(img, 0.6), registered.update(img, 0.6)   # registering first changes no blob
-    assert len(a) == len(b) == 1 and np.array_equal(a.xy_px, b.xy_px) and np.array_equal(a.blobs.area_px, b.blobs.area_px)
+    assert len(a) == len(b) == 1
+    assert np.array_equal(a.xy_px, b.xy_px) and np.array_equal(a.blobs.area_px, b.blobs.area_px)
 
 
 def test_static_scene_from_moving_camera_gives_nothing():
