@@ -138,6 +138,8 @@ class BusScorer:
 
     def on_truth(self, key: str, t: Truth) -> None:
         with self.lock:
+            if self.board.start_s is None:   # the run starts at its first frame, answered or not
+                self.board.start_s = t.stamp_s
             self.truth[self._ms(t.stamp_s)] = t
             self._score(self._ms(t.stamp_s))
 

@@ -1,0 +1,25 @@
+"""The bus scorer: frames are timed from the run's first frame, whether or not it was answered."""
+
+from uvteam.geo import LocalFrame
+from uvteam.messages import Crowd, Crowds, Truth, TruthCrowd
+from uvteam.scoring import BusScorer
+
+T0 = 1_790_000_000.0
+LAT, LON = 31.4850, -111.5440
+
+
+def test_an_unanswered_first_frame_is_the_runs_start():
+    # field-alt100-lm6: the localizer has no origin yet at the first frame and sends nothing for it;
+    # scored last (by finish), it was timed from the second frame and logged at t = -0.1 s
+    scorer = BusScorer(LocalFrame(LAT, LON))
+    crowd = Crowd(1, LAT, LON, (), (), 0.0, 0.0, 1.0, "least_squares", 0)
+    for k in range(3):
+        stamp = T0 + 0.1 * k
+        scorer.on_truth("t", Truth(stamp, k, (TruthCrowd(LAT, LON, 10),), ()))
+        if k:
+            scorer.on_crowds("c", Crowds("loc1", "uav1", stamp, "least_squares", (), (), (crowd,)))
+    board = scorer.finish()
+    times = sorted(round(t, 3) for t, *_ in board.frame_log)
+    assert times == [0.0, 0.1, 0.2]
+    assert [round(t, 3) for t in board.times_s] == [0.1, 0.2]
+    assert (board.frames, len(board.errors_m)) == (3, 2)
