@@ -102,9 +102,12 @@ def test_bridge_end_to_end(team_bus, tmp_path):
         events = {}
 
         def cot_seen(data):
+            # the bridge may join between a Status and a Fix: a fix can come before the vehicle's role,
+            # so wait for the event that carries the role (a bridge that never took the Status times out)
             ev = ET.fromstring(data)
             events[ev.get("uid")] = ev
-            return {"uvteam.brt.loc1.crowd.3", "uvteam.brt.ugv1"} <= set(events)
+            ugv = events.get("uvteam.brt.ugv1")
+            return "uvteam.brt.loc1.crowd.3" in events and ugv is not None and ugv.get("type") != "a-f-G"
 
         assert _wait_for(cot_seen, cot_sock), f"no CoT events; stderr:\n{proc.stderr.read() if proc.poll() else ''}"
         crowd_ev = events["uvteam.brt.loc1.crowd.3"]
