@@ -29,6 +29,18 @@ from .demo import free_port, uvteam_command, wait_port
 KEY = "uvteam/bench/uav1/frame"
 
 
+def stop(p: subprocess.Popen | None, timeout_s: float = 5.0) -> None:
+    """Terminates a process still running, and kills it if it has not gone within ``timeout_s``."""
+    if p is None or p.poll() is not None:
+        return
+    p.terminate()
+    try:
+        p.wait(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        p.wait()
+
+
 def cpu_s(pid: int) -> float:
     """User + system CPU seconds of a process (/proc/<pid>/stat), 0 when it is gone."""
     try:
@@ -138,13 +150,7 @@ def run_mode(shm: bool, n: int = 100, rate_hz: float = 20.0, size: tuple[int, in
         os.unlink(out)
     finally:
         for p in (sub, router):
-            if p is not None and p.poll() is None:
-                p.terminate()
-                try:
-                    p.wait(timeout=5)
-                except subprocess.TimeoutExpired:
-                    p.kill()
-                    p.wait()
+            stop(p)
     lat = np.array(got["latency_ms"])
     return {"shm": shm, "frames": len(lat), "via_shm": got["via_shm"],
             "p50_ms": float(np.percentile(lat, 50)) if len(lat) else float("nan"),

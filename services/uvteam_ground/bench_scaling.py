@@ -21,7 +21,7 @@ from pathlib import Path
 
 from uvteam.service import StopFlag
 
-from .bench_frames import cpu_s, machine_busy
+from .bench_frames import cpu_s, machine_busy, stop
 from .bench_latency import ProcessWatch
 from .demo import DEFAULT_SCENARIO, Team, wait_port, free_port, run_demo, uvteam_command
 
@@ -58,12 +58,7 @@ def run_teams(n: int, duration_s: float) -> dict:
         for w in watches:
             w.__exit__()
     finally:
-        router.terminate()
-        try:
-            router.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            router.kill()
-            router.wait()
+        stop(router)
         log.close()
     p50, p99, loss, rss = [], [], [], []
     for team, res in zip(teams, results):

@@ -11,10 +11,8 @@ from pathlib import Path
 import jsonschema
 import pytest
 
-from uvteam.config import vehicle_config_to_toml
-from uvteam.io.files import load_scenario
-from uvteam.io.recording import McapRecorder, attach_in_memory
-from uvteam_sim.experiment import SimTeam
+
+from conftest import record_experiment
 
 pytestmark = pytest.mark.integration
 ROOT = Path(__file__).resolve().parents[2]
@@ -28,12 +26,7 @@ def foxglove_view(tmp_path_factory):
     if not (JS / "node_modules" / "@mcap" / "core").is_dir():
         pytest.skip("Foxglove's MCAP reader is not installed: run `make js` (npm install in tests/js)")
     path = tmp_path_factory.mktemp("fox") / "exp.mcap"
-    team = SimTeam(load_scenario(ROOT / "services" / "uvteam_ground" / "data" / "demo.toml"), 2, "sensor")
-    with McapRecorder(path, team.layout.team, clock=team.clock) as rec:
-        rec.add_config("loc1", vehicle_config_to_toml(team.cfgs["loc1"]))
-        attach_in_memory(team.hub, team.layout.team, rec)
-        team.run(5.0)
-        counts = dict(rec.counts)
+    _, counts = record_experiment(path, 2, 5.0)
     r = subprocess.run(["node", str(JS / "check_mcap.mjs"), str(path)], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     return json.loads(r.stdout), counts

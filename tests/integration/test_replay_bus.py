@@ -6,28 +6,21 @@ import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
 
 import pytest
 import zenoh
 
-from uvteam.config import vehicle_config_to_toml
-from uvteam.io.files import load_scenario
-from uvteam.io.recording import McapRecorder, attach_in_memory, read_recording
-from uvteam_sim.experiment import SimTeam
+from uvteam.io.recording import read_recording
+
+from conftest import record_experiment
 
 pytestmark = pytest.mark.integration
-ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory):
     path = tmp_path_factory.mktemp("replay") / "exp.mcap"
-    team = SimTeam(load_scenario(ROOT / "services" / "uvteam_ground" / "data" / "demo.toml"), 4, "sensor")
-    with McapRecorder(path, team.layout.team, clock=team.clock) as rec:
-        rec.add_config("loc1", vehicle_config_to_toml(team.cfgs["loc1"]))
-        attach_in_memory(team.hub, team.layout.team, rec)
-        team.run(3.0)
+    record_experiment(path, 4, 3.0)
     return path
 
 

@@ -3,7 +3,6 @@ checked), with schemas on every channel, Foxglove's map channels, and a fresh lo
 reproduces every recorded crowds message byte for byte."""
 
 import json
-from pathlib import Path
 
 import jsonschema
 import msgpack
@@ -11,28 +10,18 @@ import pytest
 from mcap.reader import make_reader
 
 from uvteam import keys, messages, protocol
-from uvteam.config import vehicle_config_to_toml
 from uvteam.formats import foxglove
-from uvteam.io.files import load_scenario
-from uvteam.io.recording import McapRecorder, attach_in_memory, ns_of, read_recording, s_of
+from uvteam.io.recording import ns_of, read_recording, s_of
 from uvteam.replay import first_difference, localizer_config_for, replay_localizer
 from uvteam_ground.record import replay_main
-from uvteam_sim.experiment import SimTeam
 
-DEMO = Path(__file__).resolve().parents[2] / "services" / "uvteam_ground" / "data" / "demo.toml"
-
+from conftest import record_experiment
 
 @pytest.fixture(scope="module")
 def experiment_recording(tmp_path_factory):
     """8 s of the demo scenario in the experiment (the team's nodes over the in-memory bus), recorded."""
     path = tmp_path_factory.mktemp("rec") / "exp.mcap"
-    team = SimTeam(load_scenario(DEMO), 1, "sensor")
-    rec = McapRecorder(path, team.layout.team, clock=team.clock, recorder="test")
-    loc = team.layout.localizer
-    rec.add_config(loc, vehicle_config_to_toml(team.cfgs[loc]))
-    attach_in_memory(team.hub, team.layout.team, rec)
-    team.run(8.0)
-    rec.close()
+    team, _ = record_experiment(path, 1, 8.0, recorder="test")
     return path, team
 
 
