@@ -138,6 +138,17 @@ class Registration:
 
 
 @dataclass(frozen=True, slots=True)
+class _Registered:
+    """One frame registered ahead of its detection (:meth:`MotionDetector.register`)."""
+
+    stamp_s: float
+    prev: np.ndarray | None            # the previous frame, processed (None: this is a first frame)
+    curr: np.ndarray
+    dt_s: float
+    registration: Registration | None  # None for a first frame
+
+
+@dataclass(frozen=True, slots=True)
 class MotionResult:
     """One frame's moving blobs (full-resolution pixels), which of them are carved vehicles, and the
     camera registration they rest on (residual in processed pixels)."""
@@ -329,7 +340,7 @@ class MotionDetector:
         self._older_H: np.ndarray | None = None  # the one before
         self._age_box: tuple[int, int, int, int] | None = None   # where the motion history holds anything
         self._followed: dict = {}                 # carve id -> its point in the previous frame (processed px)
-        self._pending: tuple | None = None      # (stamp, prev, curr, dt, registration) from register()
+        self._pending: _Registered | None = None   # this frame, registered ahead of update()
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
         # a square closing: it joins members up to merge_px apart, and costs the same at any size
         self._k_close = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.merge_px, cfg.merge_px))
@@ -354,7 +365,7 @@ class MotionDetector:
             return None
         s = self.cfg.process_scale
         q = (np.asarray(xy_px, float).reshape(-1, 2) + 0.5) * s - 0.5
-        reg = self._pending[4] if self._pending is not None else None
+        reg = self._pending.registration if self._pending is not None else None
         if reg is not None and reg.H_curr_from_prev is not None and len(q):
             q = cv2.perspectiveTransform(q.reshape(-1, 1, 2), np.linalg.inv(reg.H_curr_from_prev)).reshape(-1, 2)
         p = np.round(q).astype(int)
@@ -385,10 +396,9 @@ class MotionDetector:
         The phases are the module docstring's steps: :meth:`_scaled` (the processed copies),
         :meth:`_register` (1-2), :meth:`_moving` (3), :meth:`_history` (4), :meth:`_components` (5),
         :meth:`_split` (6) and :meth:`_measure` (the blobs of each component)."""
-        if self._pending is None or self._pending[0] != stamp_s:
-            self.register(frame, stamp_s)
-        _, prev, curr, dt_s, reg = self._pending
-        self._pending, self._busy = None, None
+        self.register(frame, stamp_s)
+        p, self._pending, self._busy = self._pending, None, None
+        prev, curr, dt_s, reg = p.prev, p.curr, p.dt_s, p.registration
         if reg is None:
             return MotionResult.empty()
         if reg.H_curr_from_prev is None:
@@ -425,8 +435,8 @@ class MotionDetector:
         """Steps 1-2 for ``frame`` ahead of :meth:`update`, which goes on from them when called with the
         same stamp (and frame); meanwhile :meth:`moved_near` takes this frame's points. None for a first
         frame (or one of another size), which has nothing to be registered with."""
-        if self._pending is not None and self._pending[0] == stamp_s:
-            return self._pending[4]
+        if self._pending is not None and self._pending.stamp_s == stamp_s:
+            return self._pending.registration
         curr, curr_c = self._scaled(frame)
         prev, self._prev = self._prev, curr
         prev_c, self._prev_c = self._prev_c, curr_c
@@ -439,7 +449,7 @@ class MotionDetector:
             self._busy = None
         else:
             reg = self._register(prev_c, curr_c, self._busy)
-        self._pending = (stamp_s, prev, curr, dt_s, reg)
+        self._pending = _Registered(stamp_s, prev, curr, dt_s, reg)
         return reg
 
     def _tails(self, carve: np.ndarray, ids: Sequence | None, H: np.ndarray, dt_s: float, r_px: float) -> np.ndarray:
