@@ -133,7 +133,7 @@ class Simulation:
         n = SENSOR_MODEL_NOISE
         return Detections(uav_id, self.t0_unix_s + t_s, seq, sc.camera.width_px, sc.camera.height_px,
                           sc.uav.altitude_agl_m, self.world.camera.focal_px, sf.landmarks, sf.blobs,
-                          n.color_px, n.ugv_blob_px, n.crowd_blob_px)
+                          n.color_px, n.ugv_blob_px, n.crowd_blob_px, None, n.crowd_blob_frame_px)
 
     def set_mission(self, i: int, items: list[MissionItem]) -> None:
         """A mission uploaded to UGV ``i``'s autopilot: the simulated vehicle drives its legs."""

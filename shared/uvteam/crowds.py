@@ -5,7 +5,12 @@ apart (:mod:`uvteam.vision.motion`, step 6), so two crowds that pass close by st
 can have such a gap inside it too. Which it is shows in how the parts move: the parts of one crowd
 keep their offset, two crowds drift together or apart. So each frame (:func:`report_crowds`):
 
-1. every estimate is tracked on the ground (:class:`uvteam.tracking.CrowdTracker`);
+1. every estimate is tracked on the ground (:class:`uvteam.tracking.CrowdTracker`), and its 95 % radius
+   widened when the track's estimates over the last ``scatter_s`` scatter about a straight line at
+   constant speed more than the noise the radius holds changes from frame to frame: a detector
+   may declare only the offset a crowd's blob keeps (:mod:`uvteam.detector_noise`: the pixel
+   pipeline does) and leave what the blob does between frames (parts lost and found, ground texture,
+   pixel noise) to be measured here, in these very frames;
 2. estimates closer than ``near_m`` are parts of one crowd, and so is a small part (``straggler_ratio``
    of the other's moving pixels) whose footprint is within ``near_gap_m`` of a bigger one's, as the
    walkers a UGV cuts off a crowd's edge; unless they move apart or together faster than
@@ -37,7 +42,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .localizer import CrowdEstimate
+from .localizer import R95_PER_SIGMA, CrowdEstimate
 from .tracking import CrowdTrack, CrowdTracker
 
 __all__ = ["GroupingConfig", "GroupingState", "Held", "ReportedCrowd", "crowd_groups", "report_crowds"]
@@ -48,13 +53,15 @@ class GroupingConfig:
     near_m: float = 12.0          # parts of one crowd lie within this of each other (three crowd spreads)
     near_gap_m: float = 4.0       # ... or their footprints this close (the detector's crowd spacing), when
     straggler_ratio: float = 0.4  # ... one has at most this fraction of the other's moving pixels
-    window_s: float = 4.0         # the distance between two parts is fitted over this long
+    window_s: float = 3.0         # the distance between two parts is fitted over this long
     min_span_s: float = 1.0       # the frames in which both parts were seen must span this long
     max_rel_speed_m_s: float = 0.4  # two parts moving apart or together faster than this are two crowds
     significance: float = 4.0     # ... and by this many standard errors of the fitted slope
     confirm_hits: int = 3         # a crowd is reported once its longest-seen part was seen this often
     apart_m: float = 18.0         # parts once this far apart are two crowds while both are tracked,
     apart_frames: int = 10        # ... and so are parts whose distance changed significantly this many frames in a row
+    scatter_s: float = 10.0       # a crowd's radius counts the scatter of its estimates over this long
+    scatter_min_points: int = 5   # ... once there are this many
 
     def __post_init__(self) -> None:
         for name in ("near_m", "window_s", "min_span_s", "max_rel_speed_m_s"):
@@ -151,6 +158,34 @@ def _rel_speed_m_s(a: dict, b: dict, stamp_s: float, cfg: GroupingConfig) -> flo
     return float(abs(slope)) if abs(slope) > cfg.significance * stderr else 0.0
 
 
+def trail_scatter_m(trail: tuple[tuple[float, float, float], ...], min_points: int) -> float:
+    """1-sigma per axis of a track's recent estimates about a straight line at constant speed fitted to
+    them (least squares in time, per axis; the residuals' sum over both axes / (2 (n - 2))); 0 with fewer
+    than ``min_points``."""
+    n = len(trail)
+    if n < max(min_points, 3):
+        return 0.0
+    a = np.asarray(trail, float)
+    t = a[:, 0] - a[:, 0].mean()
+    stt = float(t @ t)
+    if not stt > 0:
+        return 0.0
+    y = a[:, 1:] - a[:, 1:].mean(0)
+    slope = (t @ y) / stt
+    r = y - t[:, None] * slope[None]
+    return float(np.sqrt((r * r).sum() / (2 * (n - 2))))
+
+
+def _with_scatter(c: CrowdEstimate, track: CrowdTrack, cfg: GroupingConfig) -> CrowdEstimate:
+    """The estimate with its 95 % radius widened by its own track's measured scatter (step 1), by what
+    the scatter shows beyond the frame-to-frame noise the radius already holds (``frame_radius95_m``)."""
+    s = trail_scatter_m(tuple(p for p in track.trail if p[0] >= track.stamp_s - cfg.scatter_s), cfg.scatter_min_points)
+    extra2 = (R95_PER_SIGMA * s) ** 2 - c.frame_radius95_m ** 2
+    if not extra2 > 0:
+        return c
+    return replace(c, radius95_m=float(np.sqrt(c.radius95_m ** 2 + extra2)))
+
+
 def _merge(parts: list[CrowdEstimate]) -> CrowdEstimate:
     if len(parts) == 1:
         return parts[0]
@@ -181,6 +216,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     boxes_all = np.array([[*c.footprint_en_m.min(0), *c.footprint_en_m.max(0)] for c in estimates], float).reshape(-1, 4)
     live = {t.track_id: t for t in tracker.tracks}
     holds = _merged(state, live, trk, boxes_all, stamp_s)
+    estimates = tuple(_with_scatter(c, t, cfg) for c, t in zip(estimates, trk))
     confirmed = [k for k in range(len(trk)) if trk[k].hits >= cfg.confirm_hits]  # a one-frame blob joins nothing
     apart = set(state.apart)
     for x, since in list(holds.items()):    # crowds coming out of the blob that took them in

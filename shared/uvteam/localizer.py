@@ -31,7 +31,10 @@ business (:mod:`uvteam.nodes.localizer`). Per frame, :func:`localize_step` runs 
    quality flag. No estimate leaves without its flag.
 
 The pixel noise the radius propagates is what the detector declares with its detections
-(:class:`FrameObservation` ``sigma_*``), unless the config overrides it.
+(:class:`FrameObservation` ``sigma_*``), unless the config overrides it. The landmarks' part (pixel
+and GNSS) is scaled up by what the residuals of the fits with more than four landmarks show, averaged
+over frames (:func:`learn_landmark_noise`): a label centre on real ground, a GNSS worse than it
+reports or a ground that is not quite a plane widen the radius they cause, measured in flight.
 """
 
 from __future__ import annotations
@@ -113,6 +116,8 @@ class FrameObservation:
     sigma_crowd_blob_px: float = 1.5
     pose: PosePrior | None = None           # the camera's pose in the localizer's frame, when reported
     px_per_m: float | None = None           # image scale at the ground (focal / height), when known
+    sigma_crowd_blob_frame_px: float | None = None  # of sigma_crowd_blob_px, the part that changes from
+                                                    # frame to frame (None: all of it)
 
 
 @dataclass(frozen=True, slots=True)
@@ -140,6 +145,8 @@ class LocalizerConfig:
     suspect_sigmas: float = 4.0             # a 4-landmark fit this many sigmas from its prior is SUSPECT
     claim_radius_m: float = 2.5             # a UGV claims blobs this close to where it is (its size and trail)
     pose_bias_rate: float = 0.05            # how fast the pose's bias against landmark transforms is learnt
+    learn_landmark_noise: bool = True       # widen the landmarks' declared noise by what the fits' residuals show
+    residual_rate: float = 0.05             # ... learnt this fast
 
     def __post_init__(self) -> None:
         for what, v, choices in (("image_coordinates", self.image_coordinates, IMAGE_COORDINATES),
@@ -176,6 +183,8 @@ class LocalizerState:
     pose_bias_en_m: tuple[float, float] = (0.0, 0.0)  # where landmark transforms put the image centre, less the pose
     pose_bias_var_m2: float = 0.0           # the scatter of that difference (per axis)
     pose_bias_n: int = 0                    # frames it was learnt from
+    landmark_chi2: float = 1.0              # the fits' residuals over those the declared noise predicts (mean)
+    landmark_chi2_n: int = 0                # fits with residual freedom it was learnt from
 
 
 @dataclass(frozen=True, slots=True)
@@ -188,6 +197,8 @@ class CrowdEstimate:
     quality: FitQuality
     n_outliers: int
     area_px: float = 1.0                    # the blob's moving pixels, from the detector
+    frame_radius95_m: float = 0.0           # the part of radius95_m that noise changing from frame to frame
+                                            # makes (the crowd's estimates scatter by as much, :mod:`.crowds`)
 
 
 @dataclass(frozen=True, slots=True)
@@ -502,9 +513,13 @@ _BOX_CORNERS = np.array([0, 1, 2, 1, 2, 3, 0, 3])   # xyxy -> (x0, y0), (x1, y0)
 
 
 def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landmark_px: float,
-                sigma_target_px: float, cfg: LocalizerConfig, px_per_m: float | None = None) -> tuple[CrowdEstimate, ...]:
-    """Phase 5b: the target blobs (indices) on the ground with their 95 % radii and footprints. A point
-    beyond the horizon of a bad transform is dropped: never a NaN on the map."""
+                sigma_target_px: float, cfg: LocalizerConfig, px_per_m: float | None = None,
+                landmark_scale: float = 1.0, sigma_target_frame_px: float | None = None) -> tuple[CrowdEstimate, ...]:
+    """Phase 5b: the target blobs (indices) on the ground with their 95 % radii and footprints; the
+    landmarks' noise (pixel and GNSS) times ``landmark_scale``. Each radius also says how much of it is
+    noise that changes from frame to frame (the landmarks', and ``sigma_target_frame_px`` of the
+    target's; None: all of it). A point beyond the horizon of a bad transform is dropped: never a NaN
+    on the map."""
     if not len(targets):
         return ()
     centre_px = blobs.xy_px[targets]
@@ -515,11 +530,16 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
         fp = prior.px_to_ground(corners).reshape(-1, 4, 2)
         s_t = sigma_target_px / px_per_m if px_per_m else 0.0
         r95 = R95_PER_SIGMA * np.sqrt(prior.sigma_m(en) ** 2 + s_t ** 2)
+        frame_r95 = r95 if sigma_target_frame_px is None else \
+            np.full(len(r95), R95_PER_SIGMA * (sigma_target_frame_px / px_per_m if px_per_m else 0.0))
         n_out = 0
     else:
         h = fit.fit
-        en, cov = h.map_points_with_cov(centre_px, sigma_target_px, sigma_landmark_px, fit.sigma_m)
+        s_lm, s_m = sigma_landmark_px * landmark_scale, np.asarray(fit.sigma_m, float) * landmark_scale
+        en, cov = h.map_points_with_cov(centre_px, sigma_target_px, s_lm, s_m)
         r95 = radius95_m(cov)
+        frame_r95 = r95 if sigma_target_frame_px is None or sigma_target_frame_px == sigma_target_px else \
+            radius95_m(h.map_points_with_cov(centre_px, sigma_target_frame_px, s_lm, s_m)[1])
         if fit.quality == FitQuality.HELD:
             r95 += cfg.held_growth_m_s * fit.age_s
         if fit.quality == FitQuality.SUSPECT:   # the fit or its prior is wrong: the radius covers both
@@ -529,10 +549,39 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
         n_out = int(len(h.inliers) - h.inliers.sum())
     finite = np.isfinite(np.column_stack([en, r95, fp.reshape(-1, 8)])).all(1)
     keep = range(len(targets)) if finite.all() else np.flatnonzero(finite).tolist()
-    idx, e, n, r, area = targets.tolist(), en[:, 0].tolist(), en[:, 1].tolist(), r95.tolist(), \
-        blobs.area_px[targets].tolist()
+    idx, e, n, r, area, rf = targets.tolist(), en[:, 0].tolist(), en[:, 1].tolist(), r95.tolist(), \
+        blobs.area_px[targets].tolist(), frame_r95.tolist()
     q = fit.quality
-    return tuple(CrowdEstimate(idx[k], e[k], n[k], fp[k], r[k], q, n_out, area[k]) for k in keep)
+    return tuple(CrowdEstimate(idx[k], e[k], n[k], fp[k], r[k], q, n_out, area[k], rf[k]) for k in keep)
+
+
+def landmark_noise_scale(state: LocalizerState) -> float:
+    """How much noisier the landmarks are than declared (>= 1: the declared noise is a floor)."""
+    return sqrt(max(1.0, state.landmark_chi2))
+
+
+def learn_landmark_noise(state: LocalizerState, fit: Homography, px: np.ndarray, en: np.ndarray,
+                         sigma_landmark_px: float, sigma_m: np.ndarray, cfg: LocalizerConfig) -> LocalizerState:
+    """With a fit of more than four inliers (``px``, ``en``: the landmarks given to it): its residuals
+    against those the declared noise predicts (per landmark and axis, the pixel noise on the ground plus
+    the fix's), chi-square over its 2 n - 8 degrees of freedom, averaged over frames (first 1/n, then
+    ``residual_rate``)."""
+    inl = fit.inliers
+    n = int(inl.sum())
+    if n <= 4:
+        return state
+    px, en = np.asarray(px, float)[inl], np.asarray(en, float)[inl]
+    spread_en = float(np.sqrt(((en - en.mean(0)) ** 2).sum(1).mean()))
+    if not spread_en > 0:
+        return state
+    m_per_px = spread_en / max(float(np.sqrt(((px - px.mean(0)) ** 2).sum(1).mean())), 1e-9)
+    var = (sigma_landmark_px * m_per_px) ** 2 + np.broadcast_to(np.asarray(sigma_m, float), inl.shape)[inl] ** 2
+    chi2 = float((fit.residual_m[inl] ** 2 / np.maximum(var, 1e-12)).sum()) / (2 * n - 8)
+    if not isfinite(chi2):
+        return state
+    k = state.landmark_chi2_n + 1
+    a = max(cfg.residual_rate, 1.0 / k)
+    return replace(state, landmark_chi2=state.landmark_chi2 + a * (chi2 - state.landmark_chi2), landmark_chi2_n=k)
 
 
 def learn_pose_bias(state: LocalizerState, fit: Homography, pose: PosePrior, cfg: LocalizerConfig) -> LocalizerState:
@@ -563,6 +612,7 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: Mapping[
     if fit.fit is None and prior is not None and prior.source == "pose":
         fit = replace(fit, quality=FitQuality.POSE)
     crowds: tuple[CrowdEstimate, ...] = ()
+    s_lm, s_tg = cfg.sigmas_px(obs)
     if (fit.fit is not None or fit.quality == FitQuality.POSE) and len(obs.blobs):
         if fit.fit is not None:
             to_px = fit.fit.ground_to_px
@@ -570,8 +620,9 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: Mapping[
             to_px = lambda en: obs.pose.ground_to_px(np.asarray(en) - prior.bias_en_m)  # noqa: E731
         is_ugv = pairing.is_ugv | claim_blobs(to_px, obs, positions, pairing, cfg)
         is_ugv[list(pairing.blob_of_ugv.values())] = True
-        s_lm, s_tg = cfg.sigmas_px(obs)
-        crowds = map_targets(fit, obs.blobs, np.flatnonzero(~is_ugv), s_lm, s_tg, cfg, obs.px_per_m)
+        crowds = map_targets(fit, obs.blobs, np.flatnonzero(~is_ugv), s_lm, s_tg, cfg, obs.px_per_m,
+                             landmark_noise_scale(state),
+                             obs.sigma_crowd_blob_frame_px if cfg.sigma_target_px is None else None)
     fresh = fit.fit is not None and fit.quality != FitQuality.HELD
     xy = obs.blobs.xy_px
     new_state = replace(
@@ -581,6 +632,9 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: Mapping[
         last_fit_sigma_m=fit.sigma_m if fresh else state.last_fit_sigma_m)
     if fresh and obs.pose is not None and fit.quality != FitQuality.SUSPECT:
         new_state = learn_pose_bias(new_state, fit.fit, obs.pose, cfg)
+    if fresh and cfg.learn_landmark_noise:
+        new_state = learn_landmark_noise(new_state, fit.fit, np.array([lm_px[u] for u in fit.used]),
+                                         np.array([positions[u].en_m for u in fit.used]), s_lm, fit.sigma_m, cfg)
     result = StepResult(t, fit.quality, crowds, fit.used, fit.outliers, pairing.blob_of_ugv,
                         {u: p.source for u, p in positions.items()}, fit.age_s, fit.failure)
     return new_state, result

@@ -172,7 +172,7 @@ class Detections:
     worth (1-sigma per axis, pixels). Key: uvteam/<team>/<uav>/detections (UGV ids), and the simulator's
     .../sensor (roof colors, which the UAV service relabels)."""
 
-    SCHEMA: ClassVar[str] = "detections/2"
+    SCHEMA: ClassVar[str] = "detections/3"
     MAX_BYTES: ClassVar[int] = 192 << 10   # 2000 blobs take ~140 kB
     vehicle: str
     stamp_s: float              # the frame's capture time
@@ -187,11 +187,16 @@ class Detections:
     sigma_ugv_blob_px: float    # a UGV's motion-blob centre
     sigma_crowd_blob_px: float  # a crowd's motion-blob centre, against its members' centroid
     pose: CameraPoseReport | None = None   # the camera's pose, when the UAV knows it
+    sigma_crowd_blob_frame_px: float | None = None  # of the last, what changes per frame (None: all; 0: measured by the localizer)
 
     def _rules(self) -> None:   # on every frame: the reasons are only formatted for a refusal
         if len(self.blobs) > MAX_BLOBS:
             _rule(False, "blobs", f"at most {MAX_BLOBS} blobs in a frame, got {len(self.blobs)}")
         _rule(self.focal_px > 0, "focal_px", "expected a focal length > 0")
+        f = self.sigma_crowd_blob_frame_px
+        if f is not None:
+            _rule(0.0 <= f <= self.sigma_crowd_blob_px, "sigma_crowd_blob_frame_px",
+                  "expected 0 <= sigma_crowd_blob_frame_px <= sigma_crowd_blob_px")
         _rule(_all_ids(self.landmarks.ugv), "landmarks", "landmark names must be ids")
         _rule(_all_ids(self.blobs.ugv, _LABELS_SEEN), "blobs", "blob labels must be ids or empty")
 

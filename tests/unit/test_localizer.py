@@ -226,3 +226,34 @@ def test_pixel_noise_comes_from_the_detector_unless_configured(declared, overrid
     r = [localize_step(LocalizerState(), FrameObservation(1.0, obs.landmarks, obs.blobs, *d), tracks, cfg())[1]
          .crowds[0].radius95_m for d in ((0.5, 1.0, 1.5), declared)]
     assert r[1] > 2 * r[0]     # noisier detections, a wider radius
+
+
+@pytest.mark.parametrize("learn", [True, False])
+def test_landmarks_noisier_than_declared_widen_the_radius_they_cause(learn):
+    # six landmarks whose image points are off by 3 px per axis where the detector declares 0.5 px:
+    # the fits' residuals show it, and the crowds' 95 % radii then hold the truth ~95 % of the time
+    rng = np.random.default_rng(11)
+    names = list(UGVS)
+    lm_en = np.array([UGVS[u] for u in names])
+    tracks = {u: track_at(en, 0.0, 12.0) for u, en in UGVS.items()}
+    crowd_en = rng.uniform(-15, 15, (40, 2))
+    crowd_en = crowd_en[np.hypot(*(crowd_en[:, None] - lm_en[None]).transpose(2, 0, 1)).min(1) > 5.0][:8]  # none a UGV's
+    state, inside, c = LocalizerState(), [], cfg(learn_landmark_noise=learn)
+    for f in range(100):
+        t = 1.0 + f / 10
+        lm_px = project(CAM, POSE, lm_en) + rng.normal(0, 3.0, (len(names), 2))
+        xy = np.vstack([lm_px, project(CAM, POSE, crowd_en)])
+        o = frame_obs(t, {u: tuple(lm_px[i]) for i, u in enumerate(names)}, xy)
+        o = FrameObservation(t, o.landmarks, o.blobs, 0.5, 0.5, 0.05)
+        state, out = localize_step(state, o, tracks, c)
+        assert out.quality == FitQuality.LEAST_SQUARES and len(out.crowds) == len(crowd_en)
+        if f >= 20:
+            got = np.array([[e.east_m, e.north_m] for e in out.crowds])
+            inside += (np.hypot(*(got - crowd_en).T) <= [e.radius95_m for e in out.crowds]).tolist()
+    if learn:
+        px_per_m = CAM.focal_px / POSE.up_m
+        expect = (3.0 ** 2 + (0.02 * px_per_m) ** 2) / (0.5 ** 2 + (0.02 * px_per_m) ** 2)   # fix sigma: its 2 cm floor
+        assert state.landmark_chi2 == pytest.approx(expect, rel=0.35)
+        assert 0.90 <= np.mean(inside) <= 0.99, np.mean(inside)
+    else:
+        assert state.landmark_chi2 == 1.0 and np.mean(inside) < 0.6

@@ -130,7 +130,7 @@ DET = msgpack.unpackb(encode(detections()))["data"]
 )
 def test_detections_rules(data, field):
     with pytest.raises(MessageError) as e:
-        decode(Detections, wire("detections/2", data))
+        decode(Detections, wire("detections/3", data))
     assert e.value.field == field, e.value
 
 
@@ -158,7 +158,7 @@ def test_a_bomb_costs_little_to_refuse():
     # unpack: small nested arrays and maps. Each is refused within 50 MB and 50 ms (time without tracing)
     for filler in ([], [0], {}):
         n = Detections.MAX_BYTES // (len(msgpack.packb(filler)) * 9_000)
-        bomb = msgpack.packb({"schema": "detections/2", "data": {"blobs": [[filler] * 9_000] * n}})
+        bomb = msgpack.packb({"schema": "detections/3", "data": {"blobs": [[filler] * 9_000] * n}})
         assert len(bomb) <= Detections.MAX_BYTES
         t0 = time.perf_counter()
         with pytest.raises(MessageError):

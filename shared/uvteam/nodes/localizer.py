@@ -209,7 +209,8 @@ class LocalizerNode:
             blobs = blobs[keep]
         pose = None if det.pose is None else pose_prior(det.pose, self.frame, det.width_px, det.height_px, det.focal_px)
         return FrameObservation(det.stamp_s, det.landmarks, blobs, det.sigma_color_px, det.sigma_ugv_blob_px,
-                                det.sigma_crowd_blob_px, pose, det.focal_px / det.alt_agl_m if det.alt_agl_m > 0 else None)
+                                det.sigma_crowd_blob_px, pose, det.focal_px / det.alt_agl_m if det.alt_agl_m > 0 else None,
+                                det.sigma_crowd_blob_frame_px)
 
     def process(self, det: Detections) -> Crowds | None:
         """One frame: the core step, the crowd grouping, and the Crowds message (published)."""

@@ -188,7 +188,7 @@ class UavNode:
         noise = pixel_pipeline_noise(st.alt_agl_m, focal)
         det = Detections(self.cfg.id, stamp_s, seq, w, h, st.alt_agl_m, focal,
                          r.landmarks.relabel(self.u.colors), r.blobs.relabel(self.u.colors),
-                         noise.color_px, noise.ugv_blob_px, noise.crowd_blob_px, report)
+                         noise.color_px, noise.ugv_blob_px, noise.crowd_blob_px, report, noise.crowd_blob_frame_px)
         self.bus.publish(self.det_key, det)
         self.counts.add("processed")
         if self.on_processed is not None:
