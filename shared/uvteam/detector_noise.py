@@ -8,10 +8,11 @@ localizer propagates into every crowd's 95 % radius. Declared once per detector.
   roof-label centres 0.02 m; a UGV's motion-blob centre 0.2 m; a crowd's blob centre is off its
   members' centroid by an offset each crowd keeps for seconds (unequal contrast and size of the walkers
   and their shadows weight the moving pixels: 0.2-1.1 m, in any direction, one crowd to the next;
-  mean over 1 s) plus 0.2-1.0 m that changes from frame to frame. The pipeline declares the first:
-  per axis, its RMS over paper-fig7-alt200/-alt50, paper-fig8-lm6 and field-alt100-lm6 (seeds 1-3,
-  tuned there) is 0.55 m; the second it leaves to be measured in flight (``crowd_blob_frame_px`` 0:
-  :mod:`uvteam.crowds` widens each crowd's radius by the scatter of its own estimates).
+  mean over 1 s) plus 0.2-1.0 m that changes from frame to frame. The pipeline declares the first,
+  0.55 m per axis (the steady part alone, over paper-fig7-alt200, paper-fig8-lm6 and field-alt100-lm6,
+  seeds 2-3, tuned there: RMS 0.53 m), and leaves the second to be measured in flight
+  (``crowd_blob_frame_px`` 0: :mod:`uvteam.crowds` widens each crowd's radius by the scatter of its
+  own estimates). On real aerial imagery the steady part is 0.9-1.1 m (docs/results-pixels.md).
 - ``SENSOR_MODEL_NOISE``: the simulator's sensor model, which stands in for a detector when no pixels
   are processed; it draws its noise from this table, in image pixels.
 """
