@@ -187,7 +187,7 @@ class Detections:
     sigma_ugv_blob_px: float    # a UGV's motion-blob centre
     sigma_crowd_blob_px: float  # a crowd's motion-blob centre, against its members' centroid
     pose: CameraPoseReport | None = None   # the camera's pose, when the UAV knows it
-    sigma_crowd_blob_frame_px: float | None = None  # of the last, what changes per frame (None: all; 0: measured by the localizer)
+    sigma_crowd_blob_frame_px: float | None = None  # of sigma_crowd_blob_px, the per-frame part (None: all; 0: left to the localizer)
 
     def _rules(self) -> None:   # on every frame: the reasons are only formatted for a refusal
         if len(self.blobs) > MAX_BLOBS:
