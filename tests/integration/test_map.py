@@ -160,7 +160,9 @@ def test_server_serves_page_state_events_and_tiles(map_url, basemap):
     assert status == 200 and ctype == "image/png" and body.startswith(b"\x89PNG")
     assert _get(map_url + "tiles/0/17/1/1.png")[0] == 404              # a tile the folder does not have
 
-    st = _wait_state(map_url, lambda s: s["crowds"] and len([v for v in s["vehicles"] if v.get("alive")]) >= 4)
+    # everything in: the crowd, four live vehicles and the UAV's footprint (its fix and a detections message)
+    st = _wait_state(map_url, lambda s: s["crowds"] and len([v for v in s["vehicles"] if v.get("alive")]) >= 4
+                     and any(v["id"] == "uav1" and v.get("footprint_source") for v in s["vehicles"]))
     (c,) = st["crowds"]
     assert (c["id"], c["source"], c["quality"]) == (7, "loc1", "least_squares")
     assert (c["lat"], c["lon"]) == pytest.approx(CROWD) and c["mgrs"].startswith("12RVV")
