@@ -222,13 +222,22 @@ class Homography:
 
         sigma_landmark_px / sigma_landmark_m: scalar or (n,) 1-sigma per axis for every landmark given
         to the fit (image noise and GNSS noise); outliers' entries are ignored; sigma_target_px: 1-sigma per axis of each target's pixel centre.
+        """
+        en, (cov_m,) = self.map_points_with_covs(xy_px, (sigma_target_px,), sigma_landmark_px, sigma_landmark_m)
+        return en, cov_m
+
+    def map_points_with_covs(self, xy_px, sigmas_target_px, sigma_landmark_px,
+                             sigma_landmark_m) -> tuple[np.ndarray, list[np.ndarray]]:
+        """As :meth:`map_points_with_cov`, with one (N, 2, 2) covariance per target sigma in
+        ``sigmas_target_px``, the landmarks' part propagated once.
 
         In normalised coordinates a target's pixel is a = (u, v, 1), q = Hn a, its ground point
         (X, Y) = (q1, q2) / w with w = q3, and to first order it moves by G (dHn a + Hn[:, :2] da) / w with
         G = [[1, 0, -X], [0, 1, -Y]]. Its covariance is therefore G Q G^T / w^2 with the 3 x 3
         Q = cov(dHn a) + st^2 Hn[:, :2] Hn[:, :2]^T, where cov(dHn a)_ij = a^T C_ij a over the 3 x 3 blocks
-        C_ij of the parameters' covariance (h33 = 1 has none). As a3 = 1, the target's own term joins the
-        blocks' corners, and one (N, 9) @ (9, 9) product gives every target's Q.
+        C_ij of the parameters' covariance (h33 = 1 has none). As a3 = 1, the first target sigma's term
+        joins the blocks' corners, and one (N, 9) @ (9, 9) product gives every target's Q. The target's
+        term is the same 3 x 3 K for every target, so each further sigma adds (st^2 - st0^2) G K G^T / w^2.
         """
         xy = np.atleast_2d(np.asarray(xy_px, float))
         n = len(xy)
@@ -236,22 +245,29 @@ class Homography:
         C = np.zeros((9, 9))
         C[:8, :8] = self._parameter_cov(sigma_landmark_px, sigma_landmark_m)
         Cq = C.reshape(3, 3, 3, 3).transpose(1, 3, 0, 2).reshape(9, 9)   # rows a_k a_l, columns Q_ij
-        st = sigma_target_px * self._sp
-        Cq[8] += (st * st) * (Hn[:, :2] @ Hn[:, :2].T).ravel()
+        K = (Hn[:, :2] @ Hn[:, :2].T) * (self._sp * self._sp)             # a target's term per px^2
+        s0 = float(sigmas_target_px[0])
+        Cq[8] += (s0 * s0) * K.ravel()
         a = np.ones((n, 3))                                               # targets, normalised, homogeneous
         a[:, :2] = xy * self._sp + self._Tp[:2, 2]
         q = a @ Hn.T
         w = q[:, 2:]
         XY = q[:, :2] / w
+        scale = ((w * self._sg) ** 2)[:, :, None]
         Q = ((a[:, :, None] * a[:, None, :]).reshape(n, 9) @ Cq).reshape(n, 3, 3)
         GQ = Q[:, :2] - XY[:, :, None] * Q[:, 2:]                         # G Q
-        cov_m = (GQ[:, :, :2] - GQ[:, :, 2:] * XY[:, None, :]) / ((w * self._sg) ** 2)[:, :, None]  # G Q G^T / w^2, m^2
+        covs = [(GQ[:, :, :2] - GQ[:, :, 2:] * XY[:, None, :]) / scale]  # G Q G^T / w^2, m^2
+        if len(sigmas_target_px) > 1:
+            GK = K[None, :2] - XY[:, :, None] * K[None, 2:]               # G K
+            per_px2 = (GK[:, :, :2] - GK[:, :, 2:] * XY[:, None, :]) / scale
+            covs += [covs[0] + (float(s) * float(s) - s0 * s0) * per_px2 for s in sigmas_target_px[1:]]
         en = XY / self._sg + self._Tg_inv[:2, 2]
         if n and not w.min() > 1e-12:                                     # beyond the horizon: no point
             bad = ~(w[:, 0] > 1e-12)
             en[bad] = np.nan
-            cov_m[bad] = np.nan
-        return en, cov_m
+            for c in covs:
+                c[bad] = np.nan
+        return en, covs
 
     def _parameter_cov(self, sigma_landmark_px, sigma_landmark_m) -> np.ndarray:
         """(8, 8) covariance of the normalised parameters from the inliers' pixel and ground noise, through

@@ -536,10 +536,12 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
     else:
         h = fit.fit
         s_lm, s_m = sigma_landmark_px * landmark_scale, np.asarray(fit.sigma_m, float) * landmark_scale
-        en, cov = h.map_points_with_cov(centre_px, sigma_target_px, s_lm, s_m)
-        r95 = radius95_m(cov)
-        frame_r95 = r95 if sigma_target_frame_px is None or sigma_target_frame_px == sigma_target_px else \
-            radius95_m(h.map_points_with_cov(centre_px, sigma_target_frame_px, s_lm, s_m)[1])
+        if sigma_target_frame_px is None or sigma_target_frame_px == sigma_target_px:
+            en, (cov,) = h.map_points_with_covs(centre_px, (sigma_target_px,), s_lm, s_m)
+            r95 = frame_r95 = radius95_m(cov)
+        else:
+            en, (cov, cov_frame) = h.map_points_with_covs(centre_px, (sigma_target_px, sigma_target_frame_px), s_lm, s_m)
+            r95, frame_r95 = radius95_m(cov), radius95_m(cov_frame)
         if fit.quality == FitQuality.HELD:
             r95 += cfg.held_growth_m_s * fit.age_s
         if fit.quality == FitQuality.SUSPECT:   # the fit or its prior is wrong: the radius covers both
