@@ -37,6 +37,9 @@ def test_nested_round_trip():
     d = detections()
     back = decode(Detections, encode(d))
     assert back == d and back.blobs.xy_px.shape == (2, 2) and back.blobs.ugv == ("ugv1", "")
+    assert back.sigma_crowd_blob_frame_px is None                 # unsaid: all of the crowd noise is per frame
+    for part in (0.0, 2.5, 6.3):
+        assert decode(Detections, encode(detections(sigma_crowd_blob_frame_px=part))).sigma_crowd_blob_frame_px == part
     empty = detections(landmarks=Landmarks(), blobs=Blobs.empty())
     assert decode(Detections, encode(empty)) == empty
     p = Plan("ugv1", 1.7e9, (Waypoint(1.7e9 + 1, 31.0, -111.0), Waypoint(1.7e9 + 2, 31.0001, -111.0)))
@@ -126,6 +129,9 @@ DET = msgpack.unpackb(encode(detections()))["data"]
         ({**DET, "focal_px": 0.0}, "focal_px"),                                        # no camera
         ({**DET, "sigma_crowd_blob_px": -1.0}, "sigma_crowd_blob_px"),                 # negative noise
         ({**DET, "frame_seq": -3}, "frame_seq"),                                       # a negative count
+        ({**DET, "sigma_crowd_blob_frame_px": 7.0}, "sigma_crowd_blob_frame_px"),      # more per frame than in all
+        ({**DET, "sigma_crowd_blob_frame_px": -0.5}, "sigma_crowd_blob_frame_px"),     # negative noise
+        ({**DET, "sigma_crowd_blob_frame_px": float("nan")}, "sigma_crowd_blob_frame_px"),  # no number
     ],
 )
 def test_detections_rules(data, field):
