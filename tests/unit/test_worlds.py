@@ -90,15 +90,17 @@ def test_own_scenarios_load_with_ten_seeds(name):
     assert name in (OWN_SCENARIOS / "README.md").read_text()
 
 
-def test_gnss_and_tilt_variants_differ_from_their_base_only_there():
+def test_gnss_tilt_and_noise_variants_differ_from_their_base_only_there():
     for name, base, changed in (("real-alt60-lm6-gnss1", "real-alt60-lm6", "gnss"),
                                 ("real-alt120-lm6-gnss1", "real-alt120-lm6", "gnss"),
-                                ("real-alt120-lm6-tilt9", "real-alt120-lm6", "uav")):
+                                ("real-alt120-lm6-tilt9", "real-alt120-lm6", "uav"),
+                                ("real-alt60-lm6-noise20", "real-alt60-lm6", "camera")):
         v, b = load_own_scenario(name), load_own_scenario(base)
         same = replace(v, name=b.name, path=b.path, paper_mean_error_m=b.paper_mean_error_m, **{changed: getattr(b, changed)})
         assert same == b and math.isnan(v.paper_mean_error_m), name
     assert load_own_scenario("real-alt60-lm6").gnss.sigma_m == 0.0
     assert load_own_scenario("real-alt60-lm6-gnss1").gnss.sigma_m == 1.0
+    assert (load_own_scenario("real-alt60-lm6").camera.noise_sigma, load_own_scenario("real-alt60-lm6-noise20").camera.noise_sigma) == (2.0, 20.0)
     t = load_own_scenario("real-alt120-lm6-tilt9").uav
     assert 8.0 <= off_nadir_deg(t.tilt_roll_deg, t.tilt_pitch_deg) <= 10.0
 
