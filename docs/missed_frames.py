@@ -17,6 +17,7 @@ import numpy as np
 
 import uvteam.nodes.localizer as node_module
 from uvteam.io.files import load_scenario
+from radius_decomposition import record_camera_pose   # beside this file in docs/
 from uvteam_sim.experiment import T0, SimTeam
 
 
@@ -24,14 +25,7 @@ def main(path: str, seed: int) -> dict:
     sc = load_scenario(path)
     team = SimTeam(sc, seed, "pixels")
     world, board = team.sim.world, team.scorer.board
-    pose_now = [None]
-    camera_pose = world.camera_pose
-
-    def recorded_pose():
-        pose_now[0] = camera_pose()
-        return pose_now[0]
-
-    world.camera_pose = recorded_pose
+    pose_now = record_camera_pose(world)
     seen: dict[float, tuple] = {}
     step = node_module.localize_step
 

@@ -28,10 +28,8 @@ from uvteam.localizer import R95_PER_SIGMA, FitQuality
 from uvteam_sim.experiment import T0, SimTeam
 
 
-def main(path: str, seed: int) -> dict:
-    sc = load_scenario(path)
-    team = SimTeam(sc, seed, "pixels")
-    world = team.sim.world
+def record_camera_pose(world) -> list:
+    """Keeps the simulator's true camera pose of the frame last rendered in the returned one-item list."""
     pose_now = [None]
     camera_pose = world.camera_pose
 
@@ -40,6 +38,14 @@ def main(path: str, seed: int) -> dict:
         return pose_now[0]
 
     world.camera_pose = recorded_pose
+    return pose_now
+
+
+def main(path: str, seed: int) -> dict:
+    sc = load_scenario(path)
+    team = SimTeam(sc, seed, "pixels")
+    world = team.sim.world
+    pose_now = record_camera_pose(world)
     rows, vec = [], []
     step = node_module.localize_step
 
