@@ -114,7 +114,8 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
             i = parent[i]
         return i
 
-    trails = [{round(s[0], 3): (s[1], s[2]) for s in t.trail} for t in tracks]
+    since = stamp_s - cfg.window_s - 1e-6      # the drift is fitted over the last window_s of the trails
+    trails = [{k: (s[1], s[2]) for s in t.trail if (k := round(s[0], 3)) > since} for t in tracks]
     en = np.array([[t.east_m, t.north_m] for t in tracks], float).reshape(-1, 2)
     dist = np.sqrt(((en[:, None] - en[None]) ** 2).sum(-1))
     near = dist < cfg.near_m

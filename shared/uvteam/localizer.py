@@ -536,14 +536,17 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
     else:
         h = fit.fit
         s_lm, s_m = sigma_landmark_px * landmark_scale, np.asarray(fit.sigma_m, float) * landmark_scale
-        if sigma_target_frame_px is None or sigma_target_frame_px == sigma_target_px:
+        all_per_frame = sigma_target_frame_px is None or sigma_target_frame_px == sigma_target_px
+        if all_per_frame:
             en, (cov,) = h.map_points_with_covs(centre_px, (sigma_target_px,), s_lm, s_m)
             r95 = frame_r95 = radius95_m(cov)
         else:
             en, (cov, cov_frame) = h.map_points_with_covs(centre_px, (sigma_target_px, sigma_target_frame_px), s_lm, s_m)
             r95, frame_r95 = radius95_m(cov), radius95_m(cov_frame)
         if fit.quality == FitQuality.HELD:
-            r95 += cfg.held_growth_m_s * fit.age_s
+            r95 = r95 + cfg.held_growth_m_s * fit.age_s
+            if all_per_frame:    # then the whole radius is the per-frame part, the held fit's growth included
+                frame_r95 = r95
         if fit.quality == FitQuality.SUSPECT:   # the fit or its prior is wrong: the radius covers both
             off = np.sqrt(((en - fit.prior.px_to_ground(centre_px)) ** 2).sum(1))
             r95 = np.maximum(r95, off + R95_PER_SIGMA * fit.prior.sigma_m(en))
