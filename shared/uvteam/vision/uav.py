@@ -30,7 +30,7 @@ LABEL_AREA_SLACK_PX = 25.0       # ... plus this much (blur and edge pixels of a
 MIN_LABEL_AREA_PX = 3.0
 TRACK_KEEP_S = 0.5               # a label found this recently is looked for near where it was
 MAX_UGV_SPEED_M_S = 6.0          # ... within the distance a UGV can cover since, plus a label's size
-ACQUIRE_EVERY = 10               # every this many frames the whole frame is searched, not only windows
+ACQUIRE_EVERY = 30               # every this many frames (3 s at 10 Hz) the whole frame is searched, not only windows
 
 
 @dataclass(frozen=True, slots=True)
