@@ -19,7 +19,8 @@ What a frame holds, and how it is made (every number here is a modelling choice,
   gimbal roll/pitch) onto the terrain (``SimWorld.terrain_up_m``; three fixed-point steps, exact on a
   flat plane); this is done on a grid every 8 pixels and interpolated bilinearly (the terrain is
   smooth at that scale), then the texture is sampled with ``cv2.remap``. A fixed gimbal tilt
-  (``uav.tilt_roll_deg``/``tilt_pitch_deg``) is part of the pose, like the jitter.
+  (``uav.tilt_roll_deg``/``tilt_pitch_deg``) and the run's unreported residual (``uav.attitude_sigma_deg``)
+  are part of the pose, like the jitter.
 - **Lens** (``[lens]``): with the prefilter on (``prefilter = "mipmap"``, and by default whenever the
   ground is not the default procedural one) the texture is area-averaged to each pixel's footprint,
   as a lens and sensor integrate light over a pixel: a Gaussian pyramid (``cv2.pyrDown``) of the
@@ -34,7 +35,8 @@ What a frame holds, and how it is made (every number here is a modelling choice,
   painted squares; parked vehicles and flat-roofed sheds drawn as their walls, the convex hull of
   base and top at 70 % of the top's grey, then their top, then the label-coloured patch of
   ``label_side_m`` on it), then UGVs (a dark body ``length_m`` x ``width_m`` along the heading,
-  with the square roof label of ``label_side_m`` in the UGV's color at roof height), then people
+  with the square roof label of ``label_side_m`` in the UGV's color at roof height, unless
+  ``ugvs.roof_labels`` is false), then people
   (an ellipse 0.48 x 0.30 m of muted clothing across the direction of travel, a 0.22 m head, at
   1.0 m height, sizes varying +-10 %).
 - **Sensor**: additive Gaussian noise ``noise_sigma`` per channel (drawn from a bank made once from
@@ -234,7 +236,7 @@ class Renderer:
         # and with a fixed tilt how far the view's far corner moves out (nothing added without one)
         fw, fh = cam.footprint_m(sc.uav.altitude_agl_m)
         margin = max(fw, fh) / 2 * HALF_DIAGONAL_MARGIN + 30.0
-        tilt_deg = off_nadir_deg(sc.uav.tilt_roll_deg, sc.uav.tilt_pitch_deg)
+        tilt_deg = off_nadir_deg(*world.fixed_tilt_deg())
         if tilt_deg > 0:
             corner = math.atan(math.hypot(cam.width_px, cam.height_px) / 2 / cam.focal_px)
             margin += sc.uav.altitude_agl_m * (math.tan(corner + math.radians(tilt_deg)) - math.tan(corner))
@@ -364,7 +366,8 @@ class Renderer:
             if pb is None or pl is None:
                 continue
             cv2.fillPoly(frame, [pb], (58, 62, 66), cv2.LINE_AA, _SHIFT)
-            cv2.fillPoly(frame, [pl], LABEL_BGR.get(color, (255, 255, 255)), cv2.LINE_AA, _SHIFT)
+            if sc.ugvs.roof_labels:
+                cv2.fillPoly(frame, [pl], LABEL_BGR.get(color, (255, 255, 255)), cv2.LINE_AA, _SHIFT)
         for pos, ground, along, s, bgr in people:
             across = np.array([along[1], -along[0]])
             body = self._poly_px(pose, _ellipse_m(pos, across, 0.24 * s, 0.15 * s, 10), ground + PERSON_CENTRE_HEIGHT_M)

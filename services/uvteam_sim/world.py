@@ -21,7 +21,9 @@ Modelling choices (each a scenario field or stated here):
 - GNSS: white noise ``sigma_m`` plus a random-walk bias, at ``fix_rate_hz``, ``latency_s`` late,
   none during ``dropouts``;
 - the camera's roll/pitch is the scenario's fixed gimbal tilt (``uav.tilt_roll_deg``/``tilt_pitch_deg``,
-  default 0) plus the fresh jitter;
+  default 0), plus the gimbal's residual tilt for the run (``uav.attitude_sigma_deg`` per axis, default 0,
+  from its own generator (seed, 0xA771) so the world's stream is the same with and without it; the
+  autopilot does not report it), plus the fresh jitter;
 - distractors (``[distractors]``, none by default): static things in the UGVs' label colours, placed
   once per run from their own generator (seed, 0xD15), so the world's own random stream is the same
   with and without them. Each carries a square patch of ``ugvs.label_side_m`` in a label colour
@@ -150,6 +152,8 @@ class SimWorld:
         self.seed = seed
         self.rng = np.random.default_rng(seed)
         rng = self.rng
+        a = sc.uav.attitude_sigma_deg
+        self.attitude_bias_deg = np.random.default_rng([seed, 0xA771]).normal(0, a, 2) if a > 0 else np.zeros(2)
         self.frame = LocalFrame(sc.world.origin_lat_deg, sc.world.origin_lon_deg, sc.world.ground_amsl_m)
         self.camera = PinholeCamera(sc.camera.width_px, sc.camera.height_px, sc.camera.hfov_deg)
         self.t = 0.0
@@ -281,9 +285,15 @@ class SimWorld:
         roll, pitch = (self.rng.normal(0, j, 2) if j > 0 else (0.0, 0.0))
         p = self.uav_p + self.wobble
         ground = float(self.terrain_up_m(self.uav_p)[0])
-        u = self.sc.uav   # the fixed tilt is 0 in every file that does not set it: x + 0.0 == x, frames unchanged
-        return CameraPose(float(p[0]), float(p[1]), ground + u.altitude_agl_m, 0.0,
-                          float(roll) + u.tilt_roll_deg, float(pitch) + u.tilt_pitch_deg)
+        tilt_roll, tilt_pitch = self.fixed_tilt_deg()
+        return CameraPose(float(p[0]), float(p[1]), ground + self.sc.uav.altitude_agl_m, 0.0,
+                          float(roll) + tilt_roll, float(pitch) + tilt_pitch)
+
+    def fixed_tilt_deg(self) -> tuple[float, float]:
+        """The camera's roll and pitch without the jitter: the set tilt plus the run's residual (both 0 in
+        every file that does not set them: x + 0.0 == x, frames unchanged)."""
+        u, (br, bp) = self.sc.uav, self.attitude_bias_deg
+        return u.tilt_roll_deg + float(br), u.tilt_pitch_deg + float(bp)
 
     def _in_image(self, px: np.ndarray, margin: float = 0.0) -> np.ndarray:
         w, h = self.camera.width_px, self.camera.height_px
@@ -309,7 +319,9 @@ class SimWorld:
             if not self._in_image(lm_px[i]):
                 continue
             if rng.random() >= MISS_PROB:
-                landmarks[color] = tuple(lm_px[i] + rng.normal(0, SENSOR_MODEL_NOISE.color_px, 2))
+                seen = tuple(lm_px[i] + rng.normal(0, SENSOR_MODEL_NOISE.color_px, 2))
+                if sc.ugvs.roof_labels:   # without labels the draws are made all the same: one stream either way
+                    landmarks[color] = seen
             if self.ugv_speed[i] > MOVING_M_S and rng.random() >= MISS_PROB:
                 c = lm_px[i] + rng.normal(0, SENSOR_MODEL_NOISE.ugv_blob_px, 2)
                 xy.append(c)

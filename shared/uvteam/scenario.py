@@ -26,6 +26,7 @@ GROUND_TEXTURES = ("procedural", "imagery")
 DISTRACTOR_KINDS = ("marking", "vehicle", "roof")
 PREFILTERS = ("auto", "mipmap", "none")
 MAX_TILT_DEG = 10.0                  # off-nadir angle of the fixed gimbal tilt (the range tested)
+MAX_ATTITUDE_SIGMA_DEG = 3.0         # the gimbal's unreported residual tilt, 1-sigma per axis
 IMAGERY_GSD_RANGE_M = (0.002, 0.5)   # metres per pixel of real aerial imagery
 TEXEL_RANGE_M = (0.005, 1.0)
 TILE_RANGE_M = (2.0, 100.0)
@@ -63,6 +64,7 @@ class Uav:
     position_sigma_m: float = 0.0      # GNSS, per axis: a bias for the run plus a fifth of it per frame
     heading_sigma_deg: float = 0.0     # compass: a bias for the run
     alt_sigma_m: float = 0.0           # height above ground: a bias for the run
+    attitude_sigma_deg: float = 0.0    # the gimbal's residual tilt, per axis: a bias for the run, not reported
 
 
 @dataclass(frozen=True)
@@ -85,6 +87,7 @@ class Ugvs:
     station_speed_m_s: float
     station_radius_m: float
     initial_distance_m: tuple[float, float]
+    roof_labels: bool = True          # false: the UGVs carry no roof label (no landmarks: the pose places crowds)
 
 
 @dataclass(frozen=True)
@@ -202,6 +205,8 @@ def _section(cls, data, src: str, where: str):
             v = float(v)
         if f.type == "int" and (not isinstance(v, int) or isinstance(v, bool)):
             raise ConfigError(src, f"{where}.{f.name}", f"expected an integer, got {v!r}")
+        if f.type == "bool" and not isinstance(v, bool):
+            raise ConfigError(src, f"{where}.{f.name}", f"expected true or false, got {v!r}")
         if f.type == "str" and not isinstance(v, str):
             raise ConfigError(src, f"{where}.{f.name}", f"expected a string, got {v!r}")
         if f.type == "tuple[str, ...]" and (not isinstance(v, tuple) or not all(isinstance(x, str) for x in v)):
@@ -297,6 +302,8 @@ def _validate_optional(sc: Scenario, src: str) -> None:
     u = sc.uav
     for k in ("tilt_roll_deg", "tilt_pitch_deg"):
         need(inside(getattr(u, k), -MAX_TILT_DEG, MAX_TILT_DEG), f"uav.{k}", f"-{MAX_TILT_DEG:g} to {MAX_TILT_DEG:g} deg")
+    need(inside(u.attitude_sigma_deg, 0.0, MAX_ATTITUDE_SIGMA_DEG), "uav.attitude_sigma_deg",
+         f"0-{MAX_ATTITUDE_SIGMA_DEG:g} deg; got {u.attitude_sigma_deg!r}")
     tilt = off_nadir_deg(u.tilt_roll_deg, u.tilt_pitch_deg)
     need(tilt <= MAX_TILT_DEG + 1e-9, "uav.tilt_roll_deg",
          f"roll and pitch together tilt the camera {tilt:.2f} deg off nadir; at most {MAX_TILT_DEG:g}")

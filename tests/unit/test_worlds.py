@@ -24,11 +24,14 @@ import pytest
 
 from conftest import OWN_SCENARIOS, load_own_scenario
 from uvteam.camera import CameraPose, R_cam_from_enu, project
+from uvteam.config import UavConfig
 from uvteam.errors import ConfigError
 from uvteam.io.files import ImageryMissing, ground_imagery_files, load_scenario
 from uvteam.scenario import Ground, Lens, off_nadir_deg, scenario_from_dict
-from uvteam.vision.landmarks import DEFAULT_COLORS
+from uvteam.vision.landmarks import DEFAULT_COLORS, label_candidates
+from uvteam.vision.uav import UavVisionConfig, landmark_config
 from uvteam_sim import experiment
+from uvteam_sim.simulation import Simulation
 from uvteam_sim.render import LABEL_BGR, Renderer, make_imagery_texture, mip_pyramid, sample_prefiltered
 from uvteam_sim.world import DISTRACTOR_SHAPES, Distractor, SimWorld
 
@@ -90,14 +93,25 @@ def test_own_scenarios_load_with_ten_seeds(name):
     assert name in (OWN_SCENARIOS / "README.md").read_text()
 
 
-def test_gnss_tilt_and_noise_variants_differ_from_their_base_only_there():
-    for name, base, changed in (("real-alt60-lm6-gnss1", "real-alt60-lm6", "gnss"),
-                                ("real-alt120-lm6-gnss1", "real-alt120-lm6", "gnss"),
-                                ("real-alt120-lm6-tilt9", "real-alt120-lm6", "uav"),
-                                ("real-alt60-lm6-noise20", "real-alt60-lm6", "camera")):
+def test_gnss_tilt_noise_and_pose_variants_differ_from_their_base_only_there():
+    for name, base, changed in (("real-alt60-lm6-gnss1", "real-alt60-lm6", ("gnss",)),
+                                ("real-alt120-lm6-gnss1", "real-alt120-lm6", ("gnss",)),
+                                ("real-alt120-lm6-tilt9", "real-alt120-lm6", ("uav",)),
+                                ("real-alt60-lm6-noise20", "real-alt60-lm6", ("camera",)),
+                                ("real-alt60-lm0-pose", "real-alt60-lm6", ("uav", "ugvs")),
+                                ("real-alt120-lm0-pose", "real-alt120-lm6", ("uav", "ugvs"))):
         v, b = load_own_scenario(name), load_own_scenario(base)
-        same = replace(v, name=b.name, path=b.path, paper_mean_error_m=b.paper_mean_error_m, **{changed: getattr(b, changed)})
+        same = replace(v, name=b.name, path=b.path, paper_mean_error_m=b.paper_mean_error_m,
+                       **{c: getattr(b, c) for c in changed})
         assert same == b and math.isnan(v.paper_mean_error_m), name
+    for alt in (60, 120):   # the pose worlds: no labels, and the pose errors the shipped UAV config declares
+        v, b = load_own_scenario(f"real-alt{alt}-lm0-pose"), load_own_scenario(f"real-alt{alt}-lm6")
+        assert replace(v.ugvs, roof_labels=True) == b.ugvs and not v.ugvs.roof_labels and b.ugvs.roof_labels
+        declared = UavConfig()
+        assert (v.uav.attitude_sigma_deg, v.uav.heading_sigma_deg, v.uav.alt_sigma_m) == \
+            (declared.attitude_sigma_deg, declared.heading_sigma_deg, declared.alt_sigma_m)
+        assert v.uav.position_sigma_m == 1.0 and declared.position_sigma_m == 0.0   # 0: the autopilot's h_acc
+        assert replace(v.uav, position_sigma_m=0.0, heading_sigma_deg=0.0, alt_sigma_m=0.0, attitude_sigma_deg=0.0) == b.uav
     assert load_own_scenario("real-alt60-lm6").gnss.sigma_m == 0.0
     assert load_own_scenario("real-alt60-lm6-gnss1").gnss.sigma_m == 1.0
     assert load_own_scenario("real-alt60-lm6").camera.noise_sigma == 2.0
@@ -157,6 +171,10 @@ IMAGERY = [{"path": "x.jpg", "gsd_m": 0.02}]
     ({"uav.tilt_roll_deg": 12.0}, "uav.tilt_roll_deg"),                  # over 10 deg
     ({"uav.tilt_pitch_deg": float("inf")}, "uav.tilt_pitch_deg"),        # infinite
     ({"uav.tilt_roll_deg": 6.5, "uav.tilt_pitch_deg": 8.0}, "uav.tilt_roll_deg"),  # together 10.3 deg off nadir
+    ({"uav.attitude_sigma_deg": 4.0}, "uav.attitude_sigma_deg"),          # over 3 deg
+    ({"uav.attitude_sigma_deg": -1.0}, "uav.attitude_sigma_deg"),         # negative
+    ({"ugvs.roof_labels": "no"}, "ugvs.roof_labels"),                     # not a boolean
+    ({"ugvs.roof_labels": 0}, "ugvs.roof_labels"),                        # nor is 0
     ({"sky": {"clouds": 3}}, "sky"),                                     # unknown section
 ])
 def test_bad_optional_fields_name_their_key(base_raw, changes, key):
@@ -187,7 +205,8 @@ def test_a_file_without_the_optional_parts_gets_the_defaults(base_raw):
     raw["uav"] = {k: v for k, v in raw["uav"].items() if not k.startswith("tilt_")}
     sc = scenario_from_dict(raw, "x.toml")
     assert sc.ground == Ground() and sc.lens == Lens() and sc.distractors.on_route == 0
-    assert (sc.uav.tilt_roll_deg, sc.uav.tilt_pitch_deg) == (0.0, 0.0)
+    assert (sc.uav.tilt_roll_deg, sc.uav.tilt_pitch_deg, sc.uav.attitude_sigma_deg) == (0.0, 0.0, 0.0)
+    assert sc.ugvs.roof_labels
     assert not sc.lens.mipmap(sc.ground)                             # the procedural default: sampled as before
     assert sc.lens.mipmap(Ground(texture="imagery"))                 # "auto" prefilters real imagery
     assert sc.lens.mipmap(Ground(texel_m=0.02))                      # ... and a finer procedural texture
@@ -445,6 +464,56 @@ def test_prefiltered_ground_points_land_on_their_pixels(tilt):
         m = (lab == k) * img                           # grey-weighted centroid
         c = np.array([(m * xx).sum(), (m * yy).sum()]) / m.sum()
         assert np.hypot(*(c - t)) < 0.1, (t, c)        # the square's centre, to a tenth of a pixel (measured 0.03)
+
+
+# --- the pose worlds: no roof labels, an unreported gimbal tilt -----------------------------------------------
+
+def test_without_roof_labels_no_label_is_drawn_or_sensed():
+    # the same world with and without labels: the vision's colour search finds every UGV's label in the
+    # one and nothing in the other (no distractors here), the sensor model reports no landmark, and its
+    # draws stay one stream (the blobs are the same to the bit)
+    sc = _quiet(replace(load_own_scenario("desert-alt60-lm6-distractors"),
+                        distractors=replace(load_own_scenario("desert-alt60-lm6-distractors").distractors,
+                                            on_route=0, near_crowd=0, scattered=0)))
+    bare = replace(sc, ugvs=replace(sc.ugvs, roof_labels=False))
+    lm_cfg = landmark_config(UavVisionConfig(focal_px=SimWorld(sc, 4).camera.focal_px, colors=sc.ugvs.colors),
+                             sc.uav.altitude_agl_m)
+    found = {}
+    for s in (sc, bare):
+        w = SimWorld(s, 4)
+        for _ in range(10):
+            w.step(0.5)
+        pose = w.camera_pose()
+        in_view = {c for c, ok in zip(s.ugvs.colors, w._in_image(project(w.camera, pose, w.ugv_label_enu()))) if ok}
+        img = Renderer(w, np.random.default_rng(1)).render(pose)
+        found[s.ugvs.roof_labels] = ({c.color for c in label_candidates(img, lm_cfg)}, in_view, w.sense(pose, 5.0))
+    (with_labels, in_view, sensed), (without, _, sensed_bare) = found[True], found[False]
+    assert len(in_view) >= 3 and with_labels >= in_view
+    assert without == set()
+    assert len(sensed.landmarks.ugv) >= 3 and len(sensed_bare.landmarks.ugv) == 0
+    assert np.array_equal(sensed.blobs.xy_px, sensed_bare.blobs.xy_px) and sensed.blob_kind == sensed_bare.blob_kind
+    assert all(u == "" for u in sensed_bare.blobs.ugv)
+
+
+def test_the_gimbal_residual_tilt_is_rendered_but_not_reported():
+    sc = _quiet(load_own_scenario("real-alt60-lm0-pose"))
+    level = replace(sc, uav=replace(sc.uav, attitude_sigma_deg=0.0))
+    tilts = []
+    for seed in range(1, 41):
+        w = SimWorld(sc, seed)
+        tilts.append(w.fixed_tilt_deg())
+        assert w.camera_pose().roll_deg == tilts[-1][0] and w.camera_pose().pitch_deg == tilts[-1][1]
+    tilts = np.array(tilts)
+    assert 0.6 < tilts.std() < 1.5 and len(np.unique(tilts)) == tilts.size   # N(0, 1 deg) per axis, per run
+    w, w0 = SimWorld(sc, 3), SimWorld(level, 3)
+    assert w0.fixed_tilt_deg() == (0.0, 0.0)
+    for _ in range(5):                       # the world's own stream does not see it
+        w.step(0.5)
+        w0.step(0.5)
+    assert np.array_equal(w.ugv_p, w0.ugv_p) and np.array_equal(w.crowd_c, w0.crowd_c)
+    sim = Simulation(sc, 3, 0.0)
+    st = sim.uav_state(sim.world.camera_pose(), 0.0)
+    assert st.roll_deg == 0.0 and st.pitch_deg == 0.0          # the autopilot reports a level gimbal
 
 
 def test_blur_sigma_blurs_the_frame():
