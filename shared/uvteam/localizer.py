@@ -478,25 +478,36 @@ def _misfit(prior: Prior, px: np.ndarray, en: np.ndarray, sigma_m: np.ndarray) -
 
 
 def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, UgvPosition], pairing: Pairing,
-                cfg: LocalizerConfig) -> np.ndarray:
+                cfg: LocalizerConfig, pose_sigma_m=None) -> np.ndarray:
     """Phase 5a: (N,) bool, the blobs claimed by UGVs where the transform puts them (``ground_to_px``).
 
-    A UGV whose label or own blob was found there (within ``claim_radius_m``, or the gate) needs no
-    claim: the detector carved it out of whatever it drives through, so a crowd's blob beside it stays a
-    crowd. Any other UGV whose position is known (its label not seen, or seen elsewhere: a patch of its
-    color on the ground) claims the blobs whose box holds that point or whose centre is near it."""
+    A UGV whose own blob was found there (within ``claim_radius_m``, or the gate) needs no claim: the
+    detector carved it out of whatever it drives through, so a crowd's blob beside it stays a crowd; so
+    does one whose label was found there when a landmark fit stands behind the labels. Any other UGV
+    whose position is known (its label not seen, or seen elsewhere: a patch of its color on the ground)
+    claims the blobs whose box holds that point or whose centre is near it.
+
+    ``pose_sigma_m``: None when ``ground_to_px`` is a landmark fit (exact at its own landmarks' fixes);
+    under the camera's pose, a callable of (N, 2) ground points -> (N,) its 1-sigma per axis. Then the
+    reach grows by the 95 % radius of the pose's and each fix's errors together, and a label vouches
+    for nothing (fewer than four, no fit checked it: a patch of the UGV's color by an unlabelled UGV
+    looks the same)."""
     blobs = obs.blobs
     if not positions or not len(blobs):
         return np.zeros(len(blobs), bool)
     names = sorted(positions)
-    where_px = ground_to_px(np.array([positions[u].en_m for u in names])).tolist()
-    r = cfg.gate_px if obs.px_per_m is None else max(cfg.gate_px, cfg.claim_radius_m * obs.px_per_m)
-    label_px = _label_px(obs)
+    en = np.array([positions[u].en_m for u in names])
+    where_px = ground_to_px(en).tolist()
+    reach_m = cfg.claim_radius_m + (0.0 if pose_sigma_m is None else
+                                    R95_PER_SIGMA * np.hypot(pose_sigma_m(en), [positions[u].sigma_m for u in names]))
+    reach_m = np.broadcast_to(reach_m, (len(names),))
+    label_px = _label_px(obs) if pose_sigma_m is None else {}
     xy = blobs.xy_px
     own_px = dict(zip(pairing.blob_of_ugv, xy[list(pairing.blob_of_ugv.values())].tolist()))
     claims = np.zeros(len(blobs), bool)
     box = blobs.xyxy_px
-    for u, (px, py) in zip(names, where_px):
+    for u, (px, py), reach in zip(names, where_px, reach_m.tolist()):
+        r = cfg.gate_px if obs.px_per_m is None else max(cfg.gate_px, reach * obs.px_per_m)
         if not (isfinite(px) and isfinite(py)) or _near(label_px.get(u), px, py, r) or _near(own_px.get(u), px, py, r):
             continue
         inside = (px >= box[:, 0]) & (px <= box[:, 2]) & (py >= box[:, 1]) & (py <= box[:, 3])
@@ -620,10 +631,11 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: Mapping[
     s_lm, s_tg = cfg.sigmas_px(obs)
     if (fit.fit is not None or fit.quality == FitQuality.POSE) and len(obs.blobs):
         if fit.fit is not None:
-            to_px = fit.fit.ground_to_px
-        else:
+            to_px, pose_sigma = fit.fit.ground_to_px, None
+        else:   # the pose's error and each UGV's fix's, independent of each other, widen the claim
             to_px = lambda en: obs.pose.ground_to_px(np.asarray(en) - prior.bias_en_m)  # noqa: E731
-        is_ugv = pairing.is_ugv | claim_blobs(to_px, obs, positions, pairing, cfg)
+            pose_sigma = prior.sigma_m
+        is_ugv = pairing.is_ugv | claim_blobs(to_px, obs, positions, pairing, cfg, pose_sigma)
         is_ugv[list(pairing.blob_of_ugv.values())] = True
         crowds = map_targets(fit, obs.blobs, np.flatnonzero(~is_ugv), s_lm, s_tg, cfg, obs.px_per_m,
                              landmark_noise_scale(state),

@@ -135,6 +135,39 @@ def test_fewer_than_four_landmarks_place_the_crowd_by_the_pose_with_an_honest_ra
     assert 1.0 < np.hypot(c.east_m - crowd[0], c.north_m - crowd[1]) <= c.radius95_m
 
 
+def test_without_landmarks_a_ugv_is_claimed_where_the_pose_puts_it_give_or_take_the_pose():
+    # no roof label seen: the crowd is placed by the pose (POSE), and each UGV's own motion blob, where the
+    # camera really sees it, must be claimed by the UGV although the reported pose (1.1 m, 1.5 deg and 3 deg
+    # off: each within 1.5 of its declared sigmas) puts some UGVs' fixes more than 2.5 m from it: the claim
+    # reaches as far as the pose and the fix are worth. A fixed reach (the 2.5 m of a landmark fit)
+    # reported those UGVs as crowds
+    cfg = LocalizerConfig()
+    true_pose = CameraPose(0.0, 0.0, 60.0, yaw_deg=10.0)
+    told = CameraPose(1.0, -0.5, 60.0, yaw_deg=13.0, roll_deg=1.5)
+    prior = pose_prior(report_of(told, sigma_position_m=1.0), FRAME, 1280, 720, CAM.focal_px)
+    tracks = {u: track_at(en, sigma=0.5) for u, en in RING.items()}
+    crowd = (2.0, 3.0)
+    seen_px = project(CAM, true_pose, np.array([*RING.values(), crowd]))
+    told_px = prior.ground_to_px(np.array(list(RING.values())))
+    off_m = np.hypot(*(seen_px[:-1] - told_px).T) / (CAM.focal_px / 60.0)
+    assert (off_m > 2.5).sum() >= 2 and off_m.max() < 4.5, off_m   # beyond a landmark fit's fixed reach
+    box = np.column_stack([seen_px - 12, seen_px + 12])
+    obs = FrameObservation(1.0, Landmarks.from_dict({}), Blobs(seen_px, box, np.full(len(seen_px), 100.0)),
+                           0.5, 1.0, 1.5, prior, CAM.focal_px / 60.0)
+    _, res = localize_step(LocalizerState(), obs, tracks, cfg)
+    assert res.quality == FitQuality.POSE and [c.blob_index for c in res.crowds] == [len(RING)]
+    c = res.crowds[0]
+    assert np.hypot(c.east_m - crowd[0], c.north_m - crowd[1]) <= c.radius95_m
+    # a patch of a UGV's colour 2 m beside it, taken for its label (the UGV has none): under the pose no
+    # fit vouches for it, so the UGV still claims its blob (a label once excused the claim)
+    far = [u for u, d in zip(sorted(RING), off_m) if d > 2.5][0]
+    patch = project(CAM, true_pose, np.array([np.add(RING[far], (2.0, 0.0))]))[0]
+    patched = FrameObservation(1.0, Landmarks.from_dict({far: tuple(patch)}), obs.blobs, 0.5, 1.0, 1.5, prior,
+                               CAM.focal_px / 60.0)
+    _, res = localize_step(LocalizerState(), patched, tracks, cfg)
+    assert res.quality == FitQuality.POSE and [c.blob_index for c in res.crowds] == [len(RING)]
+
+
 def test_a_label_colored_patch_on_the_ground_is_never_taken_for_the_ugv():
     # rendered frames of the demo world; a roof-label-sized (and a bigger) patch of red paint lies on the
     # ground 6 m from the red UGV, static. With the UGV's fix through the camera's pose, the vision takes
