@@ -24,9 +24,10 @@ business (:mod:`uvteam.nodes.localizer`). Per frame, :func:`localize_step` runs 
    (HELD), else the camera's pose places the crowd (POSE: its ray onto the ground, less the bias learnt
    against the landmark transforms while there were some, with a radius from the attitude and height).
 5. :func:`claim_blobs` and :func:`map_targets` -- every UGV whose position is known claims the blob
-   whose box holds, or whose centre is near, where the transform puts it, unless its label or its own
-   blob was found there: a UGV is never a crowd, whether its label was seen there, elsewhere (a
-   label-coloured patch taken for it) or not at all. Every remaining blob is mapped to the ground
+   whose box holds, or whose centre is near, where the transform puts it (under the pose: as far as
+   the pose and the fix are worth), unless its own blob, or with a landmark fit its label, was found
+   there: a UGV is never a crowd, whether its label was seen there, elsewhere (a label-coloured patch
+   taken for it) or not at all. Every remaining blob is mapped to the ground
    (centre and box footprint) with a 95 % radius from the propagated pixel and GNSS noise, and the
    quality flag. No estimate leaves without its flag.
 
@@ -40,7 +41,7 @@ reports or a ground that is not quite a plane widen the radius they cause, measu
 from __future__ import annotations
 
 from bisect import bisect_left
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from math import hypot, inf, isfinite, nan, sqrt
 
@@ -478,7 +479,7 @@ def _misfit(prior: Prior, px: np.ndarray, en: np.ndarray, sigma_m: np.ndarray) -
 
 
 def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, UgvPosition], pairing: Pairing,
-                cfg: LocalizerConfig, pose_sigma_m=None) -> np.ndarray:
+                cfg: LocalizerConfig, pose_sigma_m: Callable[[np.ndarray], np.ndarray] | None = None) -> np.ndarray:
     """Phase 5a: (N,) bool, the blobs claimed by UGVs where the transform puts them (``ground_to_px``).
 
     A UGV whose own blob was found there (within ``claim_radius_m``, or the gate) needs no claim: the
