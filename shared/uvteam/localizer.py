@@ -499,10 +499,11 @@ def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, Ugv
     names = sorted(positions)
     en = np.array([positions[u].en_m for u in names])
     where_px = ground_to_px(en).tolist()
-    reach_m = cfg.claim_radius_m + (0.0 if pose_sigma_m is None else
-                                    R95_PER_SIGMA * np.hypot(pose_sigma_m(en), [positions[u].sigma_m for u in names]))
-    reach_m = np.broadcast_to(reach_m, (len(names),))
-    label_px = _label_px(obs) if pose_sigma_m is None else {}
+    reach_m = np.full(len(names), cfg.claim_radius_m)
+    label_px = _label_px(obs)
+    if pose_sigma_m is not None:
+        reach_m += R95_PER_SIGMA * np.hypot(pose_sigma_m(en), [positions[u].sigma_m for u in names])
+        label_px = {}
     xy = blobs.xy_px
     own_px = dict(zip(pairing.blob_of_ugv, xy[list(pairing.blob_of_ugv.values())].tolist()))
     claims = np.zeros(len(blobs), bool)

@@ -472,9 +472,8 @@ def test_without_roof_labels_no_label_is_drawn_or_sensed():
     # the same world with and without labels: the vision's colour search finds every UGV's label in the
     # one and nothing in the other (no distractors here), the sensor model reports no landmark, and its
     # draws stay one stream (the blobs are the same to the bit)
-    sc = _quiet(replace(load_own_scenario("desert-alt60-lm6-distractors"),
-                        distractors=replace(load_own_scenario("desert-alt60-lm6-distractors").distractors,
-                                            on_route=0, near_crowd=0, scattered=0)))
+    desert = load_own_scenario("desert-alt60-lm6-distractors")
+    sc = _quiet(replace(desert, distractors=replace(desert.distractors, on_route=0, near_crowd=0, scattered=0)))
     bare = replace(sc, ugvs=replace(sc.ugvs, roof_labels=False))
     lm_cfg = landmark_config(UavVisionConfig(focal_px=SimWorld(sc, 4).camera.focal_px, colors=sc.ugvs.colors),
                              sc.uav.altitude_agl_m)
