@@ -202,6 +202,30 @@ def test_ugv_publishes_only_usable_fixes(ugv, kw, published):
         assert got["fix"][0].heading_deg is None         # ...and its heading stays unknown, never 0
 
 
+def test_ugv_warns_of_an_unknown_fix_type_only_when_it_persists(ugv, caplog):
+    """A position before the first GPS_RAW_INT is the stream starting: withheld, no warning. Still
+    unknown 5 s of autopilot time later, or a known bad fix at once, is worth one."""
+    node, peer, ap, clock, got = ugv
+    caplog.set_level("DEBUG", logger="uvteam.ugv")
+    for t in (T0, T0 + 1.0, T0 + 4.0):
+        ap.set_state(state(t, UGVS["ugv1"], fix_type=None))
+        node.publish_fix()
+    assert not got["fix"] and node.counts["fixes_withheld"] == 3
+    assert not [r for r in caplog.records if r.levelname == "WARNING"]
+    ap.set_state(state(T0 + 6.0, UGVS["ugv1"], fix_type=None))
+    node.publish_fix()
+    assert [r.getMessage() for r in caplog.records if r.levelname == "WARNING"] == [
+        "fix withheld: fix type None, accuracy 0.5 m"]
+
+
+def test_ugv_warns_of_a_known_bad_fix_at_once(ugv, caplog):
+    node, peer, ap, clock, got = ugv
+    ap.set_state(state(T0, UGVS["ugv1"], fix_type=1))
+    node.publish_fix()
+    assert [r.getMessage() for r in caplog.records if r.levelname == "WARNING"] == [
+        "fix withheld: fix type 1, accuracy 0.5 m"]
+
+
 def crowds_msg(sender="loc1", uav="uav1", at=(2.0, 3.0), t=T0):
     lat, lon = FRAME.ground_to_wgs84(*at)
     c = Crowd(1, float(lat), float(lon), (), (), 0.0, 0.0, 1.0, "exact", 0)
@@ -277,3 +301,18 @@ def test_uav_relabels_the_sensor_model_by_ugv_id_and_drops_other_teams_colors():
     (d,) = out
     assert d.landmarks.ugv == ("ugv2", "ugv1") and d.blobs.ugv == ("ugv1", "", "")
     assert d.sigma_crowd_blob_px == 1.5      # the detector's declared noise travels on
+
+
+def test_uav_waits_for_the_autopilot_quietly_then_warns(caplog):
+    """Frames before the autopilot's first state are refused and counted; a warning only when the
+    state is still missing 5 s of frames later (a camera may start before the MAVLink streams)."""
+    ap = MemoryAutopilot()
+    node = UavNode(VehicleConfig(TEAM, "uav1", "uav", uav=UavConfig()), InMemoryBus(InMemoryBus()), ap, Clock(T0))
+    img = np.zeros((72, 128, 3), np.uint8)
+    for i, t in enumerate((T0, T0 + 2.0, T0 + 4.5)):
+        assert node.process_frame(t, i, img) is None
+    assert node.counts["no_altitude"] == 3
+    assert not [r for r in caplog.records if r.levelname == "WARNING"]
+    assert node.process_frame(T0 + 5.5, 3, img) is None
+    assert [r.getMessage() for r in caplog.records if r.levelname == "WARNING"] == [
+        "frame 3 not processed: no height above ground from the autopilot yet"]

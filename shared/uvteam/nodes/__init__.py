@@ -22,7 +22,12 @@ from collections import Counter
 
 from .. import keys
 
-__all__ = ["Counts", "sender_ok"]
+__all__ = ["STREAM_START_S", "Counts", "sender_ok"]
+
+# An autopilot's streams start one by one, and a camera may run before them: for this long after a
+# node first needs one, a missing stream (no height above ground, no GPS_RAW_INT) is the stream
+# starting, logged at debug. Longer, it is worth a warning. The data is refused all the same.
+STREAM_START_S = 5.0
 
 
 class Counts:

@@ -39,7 +39,7 @@ from ..messages import CameraPoseReport, Detections, Fix, Frame
 from ..pose import pose_prior
 from ..sync import LatestSlot, StopFlag
 from ..vision.uav import LabelExpectation, UavVision, UavVisionConfig
-from . import Counts, sender_ok
+from . import STREAM_START_S, Counts, sender_ok
 
 __all__ = ["UavNode", "MIN_ALT_AGL_M"]
 
@@ -61,6 +61,7 @@ class UavNode:
         self.vision: UavVision | None = None
         self.size: tuple[int, int] | None = None
         self.last_state_stamp = 0.0
+        self.first_frame_s: float | None = None
         self.det_key = keys.key(cfg.team, cfg.id, "detections")
         self.counts = Counts("frames", "processed", "no_altitude", "bad_frames", "fixes_published", "no_pose")
         self.refusals = Counts()
@@ -167,9 +168,15 @@ class UavNode:
     def process_frame(self, stamp_s: float, seq: int, img: np.ndarray) -> Detections | None:
         """One image through the vision pipeline at the autopilot's height above ground -> detections."""
         st = self.autopilot.state()
+        if self.first_frame_s is None:
+            self.first_frame_s = stamp_s
         if st is None or not (math.isfinite(st.alt_agl_m) and st.alt_agl_m > MIN_ALT_AGL_M):
             self.counts.add("no_altitude")
-            self._warn.warn("altitude", "frame %d not processed: no height above ground from the autopilot yet", seq)
+            if st is None and stamp_s - self.first_frame_s < STREAM_START_S:
+                log.debug("frame %d not processed: the autopilot's stream is starting", seq)
+            else:
+                self._warn.warn("altitude", "frame %d not processed: no height above ground from the autopilot yet",
+                                seq)
             return None
         h, w = img.shape[:2]
         if (w, h) != self.size:   # the focal length in pixels follows the frame size

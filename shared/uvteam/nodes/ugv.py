@@ -41,7 +41,7 @@ from ..mission import mission_to_plan, plan_to_mission
 from ..planning import plan_stations
 from ..sync import LatestSlot, StopFlag
 from ..ugv_localize import focal_px_from_reference, localize_people
-from . import Counts, sender_ok
+from . import STREAM_START_S, Counts, sender_ok
 
 __all__ = ["UgvNode", "CrowdTarget", "MissionJob"]
 
@@ -79,6 +79,7 @@ class UgvNode:
         self._lock = threading.Lock()
         self.missions = LatestSlot()
         self.last_state_stamp = 0.0
+        self.first_state_s: float | None = None
         self.next_plan_s = -np.inf
         self.people_detector = people_detector
         self.next_people_s = -np.inf
@@ -125,9 +126,14 @@ class UgvNode:
         if st is None or st.stamp_s <= self.last_state_stamp:
             return None
         self.last_state_stamp = st.stamp_s
+        if self.first_state_s is None:
+            self.first_state_s = st.stamp_s
         if not st.usable_fix(self.u.max_h_acc_m):   # unknown fix type or accuracy is not usable either
             self.counts.add("fixes_withheld")
-            self._warn.warn("fix", "fix withheld: fix type %s, accuracy %s m", st.fix_type, st.h_acc_m)
+            if st.fix_type is None and st.stamp_s - self.first_state_s < STREAM_START_S:
+                log.debug("fix withheld: no GPS_RAW_INT yet")   # the autopilot's stream is starting
+            else:
+                self._warn.warn("fix", "fix withheld: fix type %s, accuracy %s m", st.fix_type, st.h_acc_m)
             return None
         fix = fix_from_state(self.cfg.id, st)
         if self.frame is None:
