@@ -167,10 +167,13 @@ def test_a_bomb_costs_little_to_refuse():
         n = Detections.MAX_BYTES // (len(msgpack.packb(filler)) * 9_000)
         bomb = msgpack.packb({"schema": "detections/3", "data": {"blobs": [[filler] * 9_000] * n}})
         assert len(bomb) <= Detections.MAX_BYTES
-        t0 = time.process_time()
-        with pytest.raises(MessageError):
-            decode(Detections, bomb)
-        took = time.process_time() - t0
+        took = []
+        for _ in range(3):    # the least of three: a collection of what earlier tests left is not the bomb's
+            t0 = time.process_time()
+            with pytest.raises(MessageError):
+                decode(Detections, bomb)
+            took.append(time.process_time() - t0)
+        took = min(took)
         tracemalloc.start()
         with pytest.raises(MessageError):
             decode(Detections, bomb)
