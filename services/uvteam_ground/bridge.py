@@ -202,6 +202,12 @@ class Bridge:
         self.csv: TextIO | None = None
         if self.csv_path is not None:
             new = not self.csv_path.exists() or self.csv_path.stat().st_size == 0
+            if not new:
+                with open(self.csv_path, encoding="utf-8", newline="") as f:
+                    head = f.readline()
+                if head != crowd_csv.HEADER:     # another version's columns: rows would not line up
+                    raise ConfigError(str(self.csv_path), "csv", f"its header is not {crowd_csv.HEADER.strip()}; "
+                                      "give a new file")
             self.csv = open(self.csv_path, "a", encoding="utf-8", newline="")
             if new:
                 self.csv.write(crowd_csv.HEADER)

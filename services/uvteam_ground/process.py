@@ -17,7 +17,7 @@ skipped):
 Times: a frame's time is its index / the video's frame rate, plus ``--video-start-s``; ``t_s`` in the
 CSVs is in the same time base (seconds; UNIX time or relative, either).
 
-Outputs in --out: ``crowds.csv`` (``frame,t_s,crowd_id,lat_deg,lon_deg,radius95_m,quality``),
+Outputs in --out: ``crowds.csv`` (``frame,t_s,crowd_id,lat_deg,lon_deg,radius95_m,quality,unseen_s``),
 ``crowds.geojson`` (one point feature per crowd per frame, RFC 7946), and with ``--annotated-video``
 the frames with blobs, landmarks and crowds drawn.
 """
@@ -201,10 +201,11 @@ def process(video: Path, fixes: list, uav_cfg: VehicleConfig, loc_cfg: VehicleCo
         loc.step(0.0)
         msg = dets.get("crowds")
         for c in (msg.crowds if msg is not None else ()):
-            rows.append((frame_idx, t_rel, c.crowd_id, c.lat_deg, c.lon_deg, c.radius95_m, c.quality))
+            rows.append((frame_idx, t_rel, c.crowd_id, c.lat_deg, c.lon_deg, c.radius95_m, c.quality, c.unseen_s))
             features.append({"type": "Feature", "geometry": {"type": "Point", "coordinates": [round(c.lon_deg, 8), round(c.lat_deg, 8)]},
                              "properties": {"frame": frame_idx, "t_s": t_rel, "crowd_id": c.crowd_id,
-                                            "radius95_m": round(c.radius95_m, 3), "quality": c.quality}})
+                                            "radius95_m": round(c.radius95_m, 3), "quality": c.quality,
+                                            "unseen_s": round(c.unseen_s, 2)}})
         if annotate:
             writer = writer or cv2.VideoWriter(str(out / "annotated.mp4"), cv2.VideoWriter_fourcc(*"mp4v"), fps,
                                                (img.shape[1], img.shape[0]))
@@ -215,9 +216,9 @@ def process(video: Path, fixes: list, uav_cfg: VehicleConfig, loc_cfg: VehicleCo
         writer.release()
     with open(out / "crowds.csv", "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["frame", "t_s", "crowd_id", "lat_deg", "lon_deg", "radius95_m", "quality"])
+        w.writerow(["frame", "t_s", "crowd_id", "lat_deg", "lon_deg", "radius95_m", "quality", "unseen_s"])
         for r in rows:
-            w.writerow([r[0], f"{r[1]:.3f}", r[2], f"{r[3]:.8f}", f"{r[4]:.8f}", f"{r[5]:.3f}", r[6]])
+            w.writerow([r[0], f"{r[1]:.3f}", r[2], f"{r[3]:.8f}", f"{r[4]:.8f}", f"{r[5]:.3f}", r[6], f"{r[7]:.2f}"])
     (out / "crowds.geojson").write_text(json.dumps({"type": "FeatureCollection", "features": features}))
     return {"frames": frame_idx, "crowd_rows": len(rows), "fixes": len(fixes), "uav": uav.metrics(), "localizer": loc.metrics()}
 

@@ -128,5 +128,6 @@ def _draw(seen, alive, last_msg, stats, lock) -> None:
     for m in crowds:
         for c in m.crowds:
             out.append(f"crowd {c.crowd_id}: {c.lat_deg:.6f}, {c.lon_deg:.6f}  r95 {c.radius95_m:.2f} m  {c.quality}  "
-                       f"v ({c.v_east_m_s:+.1f}, {c.v_north_m_s:+.1f}) m/s")
+                       f"v ({c.v_east_m_s:+.1f}, {c.v_north_m_s:+.1f}) m/s"
+                       + (f"  unseen {c.unseen_s:.1f} s" if c.unseen_s > 0 else ""))
     print("\n".join(out), flush=True)

@@ -32,7 +32,17 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
 5. only parts seen ``confirm_hits`` times take part (a blob of one frame neither is a crowd nor pulls
    one); a crowd is the area-weighted mean of its parts (the detector's moving pixels), its footprint
    the box round theirs, its 95 % radius the largest of theirs, reported under its longest-seen
-   part's track (id, velocity).
+   part's track (id, velocity);
+6. a crowd once reported and seen for ``coast_min_seen_s`` that goes unseen (its walkers on ground of
+   their own shade, under a canopy, a vehicle's blob over them) is still reported for ``coast_s``,
+   where the straight walk fitted to its last ``scatter_s`` of estimates takes it (a crowd going out of
+   sight goes part by part, so its last estimates lag; a walk over seconds less so), flagged with how long
+   it has been unseen (``ReportedCrowd.unseen_s``), its radius grown by the walk's velocity error
+   (the fit's standard error, at least ``coast_sigma_v_m_s`` per axis: crowds change pace) times
+   the time unseen. It ends when a crowd is reported within ``near_m`` of where it should be (seen
+   again, or walked into another crowd's blob) or after ``coast_s``. A map that drops a crowd the
+   moment its walkers blend in shows a crowd that vanished; one that holds it too long shows a crowd
+   that is not there: ``coast_s`` is the bargain (docs/results-worlds.md measures it).
 """
 
 from __future__ import annotations
@@ -45,7 +55,8 @@ import numpy as np
 from .localizer import R95_PER_SIGMA, CrowdEstimate
 from .tracking import CrowdTrack, CrowdTracker
 
-__all__ = ["GroupingConfig", "GroupingState", "Held", "ReportedCrowd", "crowd_groups", "report_crowds"]
+__all__ = ["GroupingConfig", "GroupingState", "Held", "LastSeen", "ReportedCrowd", "crowd_groups", "report_crowds",
+           "straight_walk"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,6 +73,9 @@ class GroupingConfig:
     apart_frames: int = 10        # ... and so are parts whose distance changed significantly this many frames in a row
     scatter_s: float = 10.0       # a crowd's radius counts the scatter of its estimates over this long
     scatter_min_points: int = 5   # ... once there are this many
+    coast_s: float = 5.0          # a crowd gone unseen is reported where its walk takes it this long (0: never)
+    coast_min_seen_s: float = 2.0  # ... if it was seen this long first
+    coast_sigma_v_m_s: float = 0.3  # ... its velocity known no better than this per axis (1 sigma)
 
     def __post_init__(self) -> None:
         for name in ("near_m", "window_s", "min_span_s", "max_rel_speed_m_s"):
@@ -69,6 +83,8 @@ class GroupingConfig:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         if not (0.0 <= self.straggler_ratio <= 1.0 and self.near_gap_m >= 0.0 and self.significance >= 0.0):
             raise ValueError("straggler_ratio must be in [0, 1], near_gap_m and significance >= 0")
+        if not (self.coast_s >= 0.0 and self.coast_min_seen_s >= 0.0 and self.coast_sigma_v_m_s >= 0.0):
+            raise ValueError("coast_s, coast_min_seen_s and coast_sigma_v_m_s must be >= 0")
         if not (self.apart_m >= self.near_m and self.apart_frames >= 1):
             raise ValueError(f"apart_m must be >= near_m and apart_frames >= 1, got {self.apart_m}, {self.apart_frames}")
 
@@ -93,6 +109,8 @@ class GroupingState:
     apart: frozenset[Pair] = frozenset()                        # pairs of tracks known to be two crowds
     streak: Mapping[Pair, int] = field(default_factory=dict)    # frames in a row each pair's distance changed
     holds: Mapping[int, tuple[Held, ...]] = field(default_factory=dict)  # per track, the other crowds its blob took in
+    last_seen: Mapping[int, "LastSeen"] = field(default_factory=dict)  # per reported crowd id, the crowd as last seen
+    alias: Mapping[int, int] = field(default_factory=dict)  # track id -> the id of the crowd it found again
 
 
 def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig = GroupingConfig(),
@@ -159,22 +177,45 @@ def _rel_speed_m_s(a: dict, b: dict, stamp_s: float, cfg: GroupingConfig) -> flo
     return float(abs(slope)) if abs(slope) > cfg.significance * stderr else 0.0
 
 
+def _line_fit(trail: tuple[tuple[float, float, float], ...], min_points: int):
+    """A straight line at constant speed through (stamp s, east m, north m) points, least squares in time
+    per axis: (mean time, mean position, velocity, 1-sigma residual per axis, sum of squared time
+    offsets), or None with fewer than ``min_points`` (or 3) points or no time spanned."""
+    n = len(trail)
+    if n < max(min_points, 3):
+        return None
+    a = np.asarray(trail, float)
+    t0 = float(a[:, 0].mean())
+    t = a[:, 0] - t0
+    stt = float(t @ t)
+    if not stt > 0:
+        return None
+    mean = a[:, 1:].mean(0)
+    y = a[:, 1:] - mean
+    slope = (t @ y) / stt
+    r = y - t[:, None] * slope[None]
+    return t0, mean, slope, float(np.sqrt((r * r).sum() / (2 * (n - 2)))), stt
+
+
 def trail_scatter_m(trail: tuple[tuple[float, float, float], ...], min_points: int) -> float:
     """1-sigma per axis of a track's recent estimates about a straight line at constant speed fitted to
     them (least squares in time, per axis; the residuals' sum over both axes / (2 (n - 2))); 0 with fewer
     than ``min_points``."""
-    n = len(trail)
-    if n < max(min_points, 3):
-        return 0.0
-    a = np.asarray(trail, float)
-    t = a[:, 0] - a[:, 0].mean()
-    stt = float(t @ t)
-    if not stt > 0:
-        return 0.0
-    y = a[:, 1:] - a[:, 1:].mean(0)
-    slope = (t @ y) / stt
-    r = y - t[:, None] * slope[None]
-    return float(np.sqrt((r * r).sum() / (2 * (n - 2))))
+    fit = _line_fit(trail, min_points)
+    return 0.0 if fit is None else fit[3]
+
+
+def straight_walk(trail: tuple[tuple[float, float, float], ...], at_s: float, min_points: int
+                  ) -> tuple[tuple[float, float], tuple[float, float], float] | None:
+    """The straight line at constant speed fitted to ``trail`` (as :func:`trail_scatter_m`): its position
+    at ``at_s`` (east, north m), its velocity (m/s) and the velocity's standard error per axis; None
+    with fewer than ``min_points`` (or 3) points or no time spanned."""
+    fit = _line_fit(trail, min_points)
+    if fit is None:
+        return None
+    t0, mean, slope, sigma_m, stt = fit
+    at = mean + slope * (at_s - t0)
+    return (float(at[0]), float(at[1])), (float(slope[0]), float(slope[1])), sigma_m / float(np.sqrt(stt))
 
 
 def _with_scatter(c: CrowdEstimate, track: CrowdTrack, cfg: GroupingConfig) -> CrowdEstimate:
@@ -203,10 +244,78 @@ def _merge(parts: list[CrowdEstimate]) -> CrowdEstimate:
 
 @dataclass(frozen=True, slots=True)
 class ReportedCrowd:
-    """A crowd the team is told about: its (joined) estimate and the track it is reported under."""
+    """A crowd the team is told about: its (joined) estimate and the track it is reported under;
+    ``unseen_s`` > 0: not seen in this frame, the estimate is where its walk takes it (step 6)."""
 
     estimate: CrowdEstimate
     track: CrowdTrack
+    crowd_id: int                      # the id the team knows it by: its track's, or that of the crowd it was
+                                       # before it went unseen (step 6)
+    unseen_s: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class LastSeen:
+    """A reported crowd as it was last seen (step 6)."""
+
+    crowd: ReportedCrowd
+    seen_s: float
+    en_m: tuple[float, float]          # where its straight walk over the last scatter_s had it then,
+    v_en_m_s: tuple[float, float]      # ... that walk's velocity
+    sigma_v_m_s: float                 # ... and the velocity's 1-sigma per axis
+
+
+def _remembered(state: GroupingState, out: list[ReportedCrowd], stamp_s: float, cfg: GroupingConfig,
+                live: Mapping[int, CrowdTrack]) -> tuple[dict[int, LastSeen], dict[int, int], list[ReportedCrowd]]:
+    """Step 6: the crowds reported under the ids the team knows them by, what is remembered of them,
+    the ids carried over, and the crowds unseen this frame still reported."""
+    alias = {t: c for t, c in state.alias.items() if t in live}
+    out[:] = [replace(r, crowd_id=alias.get(r.track.track_id, r.crowd_id)) for r in out]
+    last = dict(state.last_seen)
+    seen = np.array([[r.estimate.east_m, r.estimate.north_m] for r in out], float).reshape(-1, 2)
+    taken = {r.crowd_id for r in out}
+    for cid, ls in list(last.items()):    # found again: a new track where the crowd should be
+        at = np.add(ls.en_m, np.multiply(ls.v_en_m_s, stamp_s - ls.seen_s))
+        d = np.hypot(*(seen - at).T) if len(seen) else np.empty(0)
+        if cid in taken or cid in live or not len(d) or d.min() >= cfg.near_m:
+            continue
+        k = int(np.argmin(d))
+        r = out[k]
+        if r.crowd_id == r.track.track_id and r.track.first_s > ls.seen_s:
+            alias[r.track.track_id] = cid
+            taken.discard(r.crowd_id)
+            taken.add(cid)
+            out[k] = replace(r, crowd_id=cid)
+    ids = [r.crowd_id for r in out]
+    for k, r in enumerate(out):    # a track that took an id and one found again both seen: the first keeps it
+        if ids.count(r.crowd_id) > 1 and r.crowd_id != r.track.track_id:
+            ids[k] = r.track.track_id
+            out[k] = replace(r, crowd_id=r.track.track_id)
+            alias.pop(r.track.track_id, None)
+    for r in out:
+        tr, c = r.track, r.estimate
+        walk = straight_walk(tuple(p for p in tr.trail if p[0] >= stamp_s - cfg.scatter_s - 1e-6), stamp_s,
+                             cfg.scatter_min_points)
+        at, v, sigma_v = walk or ((c.east_m, c.north_m), (tr.v_east_m_s, tr.v_north_m_s), float("inf"))
+        last[r.crowd_id] = LastSeen(r, stamp_s, at, v, sigma_v)
+    coasted = []
+    for cid, ls in list(last.items()):
+        dt = stamp_s - ls.seen_s
+        if dt <= 0.0:
+            continue
+        c = ls.crowd.estimate
+        at = np.array([ls.en_m[0] + ls.v_en_m_s[0] * dt, ls.en_m[1] + ls.v_en_m_s[1] * dt])
+        de, dn = at[0] - c.east_m, at[1] - c.north_m
+        if (dt > cfg.coast_s or not ls.seen_s - ls.crowd.track.first_s >= cfg.coast_min_seen_s
+                or (len(seen) and np.hypot(*(seen - at).T).min() < cfg.near_m)):
+            del last[cid]
+            continue
+        sigma_v = max(ls.sigma_v_m_s if np.isfinite(ls.sigma_v_m_s) else 0.0, cfg.coast_sigma_v_m_s)
+        grown = float(np.hypot(c.radius95_m, R95_PER_SIGMA * sigma_v * dt))
+        moved = replace(c, east_m=float(at[0]), north_m=float(at[1]), footprint_en_m=c.footprint_en_m + [de, dn],
+                        radius95_m=grown)
+        coasted.append(replace(ls.crowd, estimate=moved, unseen_s=dt))
+    return last, alias, coasted
 
 
 def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], stamp_s: float,
@@ -240,10 +349,13 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     out = []
     for members in groups.values():
         lead = min(members, key=lambda k: (-trk[k].hits, trk[k].track_id))
-        out.append(ReportedCrowd(_merge([estimates[k] for k in members]), trk[lead]))
-    out.sort(key=lambda c: (-c.track.hits, c.track.track_id))
+        out.append(ReportedCrowd(_merge([estimates[k] for k in members]), trk[lead], trk[lead].track_id))
+    last_seen, alias, coasted = _remembered(state, out, stamp_s, cfg, live)
+    out += coasted
+    out.sort(key=lambda c: (-c.track.hits, c.crowd_id))
     apart = frozenset(p for p in apart if p[0] in live and p[1] in live)   # forgotten with either track
-    return GroupingState(tracker, apart, streak, {x: v for x, v in holds.items() if v and x in live}), out
+    holds = {x: v for x, v in holds.items() if v and x in live}
+    return GroupingState(tracker, apart, streak, holds, last_seen, alias), out
 
 
 def _merged(state: GroupingState, live: Mapping[int, CrowdTrack], trk: list[CrowdTrack], boxes_en: np.ndarray,

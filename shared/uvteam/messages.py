@@ -66,7 +66,7 @@ FRAME_ENCODINGS = ("jpeg", "bgr8")
 
 
 def encoding_of(cls: type) -> str:
-    """zenoh's encoding string for a message type, naming its schema: ``application/msgpack;crowds/2``."""
+    """zenoh's encoding string for a message type, naming its schema: ``application/msgpack;crowds/3``."""
     return f"{ENCODING};{cls.SCHEMA}"
 
 
@@ -254,7 +254,7 @@ class PeopleSeen:
 
 @dataclass(frozen=True, slots=True)
 class Crowd:
-    SCHEMA: ClassVar[str] = "crowd/1"
+    SCHEMA: ClassVar[str] = "crowd/2"
     crowd_id: int
     lat_deg: float
     lon_deg: float
@@ -265,6 +265,7 @@ class Crowd:
     radius95_m: float
     quality: str                            # a uvteam.vocab.FitQuality value
     n_outliers: int
+    unseen_s: float = 0.0                   # 0: seen in this frame; else seconds unseen, placed where its walk takes it
 
     def _rules(self) -> None:
         _rule(len(self.footprint_lat_deg) == len(self.footprint_lon_deg), "footprint_lon_deg",
@@ -277,7 +278,7 @@ class Crowd:
 class Crowds:
     """Geolocated crowds of one UAV frame. Key: uvteam/<team>/<localizer>/crowds (the sender's own key)."""
 
-    SCHEMA: ClassVar[str] = "crowds/2"
+    SCHEMA: ClassVar[str] = "crowds/3"
     MAX_BYTES: ClassVar[int] = 128 << 10
     vehicle: str                    # the localizer
     uav: str                        # whose frame
@@ -412,7 +413,8 @@ def field_range(name: str) -> tuple[float | None, float | None, bool, bool, str]
         return -180.0, 180.0, True, True, "expected longitude in [-180, 180]"
     if name in ("heading_deg", "bearing_deg", "yaw_deg"):
         return 0.0, 360.0, True, False, "expected a heading in [0, 360)"
-    if name.endswith("_acc_m") or name.startswith("sigma_") or name in ("radius95_m", "distance_m", "alt_agl_m"):
+    if name.endswith("_acc_m") or name.startswith("sigma_") or name in ("radius95_m", "distance_m", "alt_agl_m",
+                                                                           "unseen_s"):
         return 0.0, None, True, True, "expected a non-negative value"
     if name == "stamp_s":
         return 0.0, MAX_STAMP_S, False, False, f"expected a UNIX time in (0, {MAX_STAMP_S:.0e})"

@@ -12,7 +12,7 @@ cannot state (parallel lists of one length, a box with x0 <= x1, unique crowd id
 trailing comments.
 
 One schema validates a message's map in both of its forms: the msgpack ``data`` map on the wire
-(``{"schema": "crowds/2", "data": {...}}``) and :func:`uvteam.messages.as_dict`'s flat form (where
+(``{"schema": "crowds/3", "data": {...}}``) and :func:`uvteam.messages.as_dict`'s flat form (where
 ``schema`` sits beside the fields; it is optional in the schema for that reason). JSON has no bytes:
 ``bytes`` fields (a frame's pixels) are msgpack ``bin`` on the wire and base64 text in JSON
 (:func:`to_json`).

@@ -68,6 +68,7 @@ class Scoreboard:
     errors_m: list = field(default_factory=list)
     radius95_m: list = field(default_factory=list)
     quality: list = field(default_factory=list)
+    unseen_s: list = field(default_factory=list)     # 0: the crowd was seen in that frame; > 0: predicted
     truth_frames: int = 0                            # (frame, true crowd) pairs after the first second
     detected_frames: int = 0
     false_crowds: int = 0
@@ -76,7 +77,7 @@ class Scoreboard:
     frame_log: list = field(default_factory=list)    # per frame: (t, true crowds, matched, reported)
     false_log: list = field(default_factory=list)    # per false crowd: (t, east m, north m, distance to nearest UGV m)
 
-    def add(self, stamp_s: float, truth_en, reported_en, radius95_m, quality, ugv_en=None) -> FrameScore:
+    def add(self, stamp_s: float, truth_en, reported_en, radius95_m, quality, ugv_en=None, unseen_s=None) -> FrameScore:
         if self.start_s is None:
             self.start_s = stamp_s
         t = stamp_s - self.start_s
@@ -88,6 +89,7 @@ class Scoreboard:
             self.errors_m.append(err)
             self.radius95_m.append(float(radius95_m[r]))
             self.quality.append(quality[r])
+            self.unseen_s.append(0.0 if unseen_s is None else float(unseen_s[r]))
         for r, dist in zip(fs.false, fs.ugv_distance_m):
             self.false_crowds += 1
             self.ugv_as_crowd += int(dist < UGV_AS_CROWD_M)
@@ -112,6 +114,7 @@ def summarize(boards: list[Scoreboard]) -> dict:
         "p95_m": float(np.percentile(e, 95)) if len(e) else math.nan,
         "max_m": float(e.max()) if len(e) else math.nan,
         "recall": sum(b.detected_frames for b in boards) / tf if tf else math.nan,
+        "predicted": int(sum(np.count_nonzero(np.asarray(b.unseen_s, float) > 0) for b in boards)),
         "false_crowds": sum(b.false_crowds for b in boards),
         "ugv_as_crowd": sum(b.ugv_as_crowd for b in boards),
         "frames": sum(b.frames for b in boards),
@@ -164,7 +167,8 @@ class BusScorer:
         fs = self.board.add(t.stamp_s, self._en([x.lat_deg for x in t.crowds], [x.lon_deg for x in t.crowds]),
                             self._en([x.lat_deg for x in crowds], [x.lon_deg for x in crowds]),
                             [x.radius95_m for x in crowds], [x.quality for x in crowds],
-                            self._en([u.lat_deg for u in t.ugvs], [u.lon_deg for u in t.ugvs]))
+                            self._en([u.lat_deg for u in t.ugvs], [u.lon_deg for u in t.ugvs]),
+                            [x.unseen_s for x in crowds])
         if c is not None:
             self.last = (t, c, fs)
 

@@ -185,6 +185,15 @@ def test_bridge_refuses_a_bad_output_url():
     assert r.returncode == 2 and "udp://HOST:PORT" in r.stderr
 
 
+def test_bridge_refuses_to_append_to_a_csv_of_other_columns(tmp_path):
+    old = tmp_path / "crowds.csv"
+    old.write_text("stamp_s,crowd_id,lat_deg,lon_deg,mgrs,radius95_m,quality,v_east_m_s,v_north_m_s\r\n1.0,3,31,-111,,1,exact,0,0\r\n")
+    r = subprocess.run([sys.executable, "-m", "uvteam", "bridge", "--team", TEAM, "--csv", str(old)],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and "give a new file" in r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert old.read_text().count("\n") == 2         # untouched
+
+
 def test_bridge_cot_to_a_tak_server_over_tcp(team_bus):
     """--cot tcp://HOST:PORT: a stream of <event> documents on one connection, as a TAK server's plain
     streaming input takes them; the test's listener stands in for the server."""

@@ -55,6 +55,7 @@ def team_bus():
     fp_lat = (lat_c + 2e-5, lat_c + 2e-5, lat_c - 2e-5, lat_c - 2e-5)
     fp_lon = (lon_c - 2e-5, lon_c + 2e-5, lon_c + 2e-5, lon_c - 2e-5)
     crowd = Crowd(7, lat_c, lon_c, fp_lat, fp_lon, 1.5, 1.0, 3.0, "least_squares", 0)
+    unseen = Crowd(9, lat_c + 1e-4, lon_c, (), (), 1.0, 0.0, 4.5, "least_squares", 0, 2.0)   # predicted for 2 s
 
     def pump():
         k = 0
@@ -66,7 +67,7 @@ def team_bus():
             bus.publish(keys.key(TEAM, "ugv2", "fix"), Fix("ugv2", now, *_en(20, -10), 1300.0, 200.0, 0.3))
             bus.publish(keys.key(TEAM, "uav1", "fix"), Fix("uav1", now, *_en(0, 5), 1350.0, 0.0, 0.5))
             bus.publish(keys.key(TEAM, "uav1", "detections"), Detections("uav1", now, k, 1280, 720, 50.0, 800.0, Landmarks(), Blobs.empty(), 0.5, 1.0, 1.5))
-            bus.publish(keys.key(TEAM, "loc1", "crowds"), Crowds("loc1", "uav1", now, "least_squares", ("ugv1", "ugv2"), (), (crowd,)))
+            bus.publish(keys.key(TEAM, "loc1", "crowds"), Crowds("loc1", "uav1", now, "least_squares", ("ugv1", "ugv2"), (), (crowd, unseen)))
             bus.publish(keys.key(TEAM, "loc1", "status"), Status("loc1", "localizer", now, "none", 0, k, k, {"step_us_p50": 600.0}))
             bus.publish(keys.key(TEAM, "uav1", "frame"), Frame("uav1", now, k, 2, 1, "bgr8", b"\x00" * 6))
             k += 1
@@ -163,8 +164,9 @@ def test_server_serves_page_state_events_and_tiles(map_url, basemap):
     # everything in: the crowd, four live vehicles and the UAV's footprint (its fix and a detections message)
     st = _wait_state(map_url, lambda s: s["crowds"] and len([v for v in s["vehicles"] if v.get("alive")]) >= 4
                      and any(v["id"] == "uav1" and v.get("footprint_source") for v in s["vehicles"]))
-    (c,) = st["crowds"]
-    assert (c["id"], c["source"], c["quality"]) == (7, "loc1", "least_squares")
+    c, predicted = st["crowds"]
+    assert (c["id"], c["source"], c["quality"], c["unseen_s"]) == (7, "loc1", "least_squares", 0.0)
+    assert (predicted["id"], predicted["unseen_s"]) == (9, 2.0)
     assert (c["lat"], c["lon"]) == pytest.approx(CROWD) and c["mgrs"].startswith("12RVV")
     v = {x["id"]: x for x in st["vehicles"]}
     assert (v["uav1"]["role"], v["ugv1"]["role"], v["loc1"]["role"]) == ("uav", "ugv", "service")
@@ -265,6 +267,7 @@ def test_browser_draws_the_team_where_it_is(map_url, team_bus):
             assert view["ugv1_heading"] == "rotate(45 14 14)"     # heading arrow, 45 deg clockwise from north
             assert view["footprint"] and view["velocity"]
             assert "#7" in view["list"] and "12R VV" in view["list"] and "31.48512" in view["list"]  # side list
+            assert "#9 (unseen 2.0 s)" in view["list"] and "#7 (unseen" not in view["list"]
             shot = ARTIFACTS / "map-browser.png"
             page.screenshot(path=str(shot))
             print(f"screenshot: {shot}")

@@ -235,3 +235,64 @@ def test_a_crowd_radius_holds_its_own_measured_scatter(jitter_m):
     else:
         assert 0.92 <= np.mean(inside) <= 0.98, np.mean(inside)
         assert np.median(r) == pytest.approx(np.hypot(declared, 2.4477 * jitter_m), rel=0.1)
+
+
+# --- step 6: a crowd gone unseen -------------------------------------------------------------------------
+
+def walk_with_gap(gap=(4.0, 7.0), seconds=10.0, v=(1.4, 0.5), jitter_m=0.3, seed=0, cfg=GroupingConfig(),
+                  other=None):
+    """One crowd walking at ``v`` from the origin, unseen during ``gap`` (s); per frame its true centre
+    and what was reported. ``other(t)``: a second crowd's (east, north), always seen."""
+    rng = np.random.default_rng(seed)
+    state, frames = GroupingState(), []
+    for f in range(int(seconds * 10)):
+        t = f / 10
+        truth = (v[0] * t, v[1] * t)
+        seen = [] if gap[0] <= t < gap[1] else [(truth[0] + rng.normal(0, jitter_m), truth[1] + rng.normal(0, jitter_m))]
+        if other is not None:
+            seen.append(other(t))
+        state, out = report_crowds(state, tuple(estimate(e, n, 20.0) for e, n in seen), T0 + t, cfg)
+        frames.append((t, truth, out))
+    return frames
+
+
+def test_a_crowd_unseen_is_reported_where_its_walk_takes_it_flagged_and_keeps_its_id():
+    frames = walk_with_gap()
+    before = [o for t, _, o in frames if 3.0 <= t < 4.0]
+    (cid,) = {r.crowd_id for o in before for r in o}
+    unseen = [(t, truth, o) for t, truth, o in frames if 4.0 <= t < 7.0]
+    for t, truth, out in unseen:
+        (r,) = out
+        assert r.crowd_id == cid and r.unseen_s == pytest.approx(t - 3.9)
+        err = np.hypot(r.estimate.east_m - truth[0], r.estimate.north_m - truth[1])
+        assert err < r.estimate.radius95_m < 5.0    # held by its radius, which grows...
+    radii = [o[0].estimate.radius95_m for _, _, o in unseen]
+    assert radii == sorted(radii) and radii[-1] > radii[0] + 1.0     # ...with the time unseen
+    # seen again after 3 s: a new track, the same crowd, the same id, no longer flagged
+    after = [o for t, _, o in frames if t >= 7.0]
+    assert all(len(o) == 1 and o[0].crowd_id == cid and o[0].unseen_s == 0.0 for o in after[3:])
+
+
+def test_a_crowd_unseen_longer_than_coast_s_is_dropped():
+    frames = walk_with_gap(gap=(4.0, 10.0))
+    counts = {round(t, 1): len(o) for t, _, o in frames}
+    assert counts[8.9] == 1 and counts[9.0] == 0         # last seen at 3.9 s, coast_s 5 s
+
+
+def test_a_crowd_seen_briefly_is_not_held():
+    frames = walk_with_gap(gap=(1.5, 5.0), cfg=GroupingConfig(coast_min_seen_s=2.0))
+    assert all(not o for t, _, o in frames if 1.5 <= t < 5.0)
+
+
+def test_a_crowd_walking_into_another_is_not_reported_twice():
+    # a second crowd, 25 m off (two crowds) walks to where the first goes unseen: one crowd there, the second
+    frames = walk_with_gap(gap=(4.0, 10.0), other=lambda t: (25.6 - 5.0 * min(t, 4.0), 2.0))
+    ids = {r.crowd_id for t, _, o in frames if 2.0 <= t < 4.0 for r in o}
+    assert len(ids) == 2
+    gap = [o for t, _, o in frames if 4.2 <= t < 10.0]
+    assert all(len(o) == 1 and o[0].unseen_s == 0.0 for o in gap)
+
+
+def test_no_coasting_when_coast_s_is_zero():
+    frames = walk_with_gap(cfg=GroupingConfig(coast_s=0.0))
+    assert all(not o for t, _, o in frames if 4.0 <= t < 7.0)

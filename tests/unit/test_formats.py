@@ -27,17 +27,17 @@ KML = "{http://www.opengis.net/kml/2.2}"
 GX = "{http://www.google.com/kml/ext/2.2}"
 
 
-def _crowd(crowd_id, lat=LAT, lon=LON, r95=2.5, ve=1.2, vn=-0.4, half_deg=2e-5, quality="least_squares"):
+def _crowd(crowd_id, lat=LAT, lon=LON, r95=2.5, ve=1.2, vn=-0.4, half_deg=2e-5, quality="least_squares", unseen_s=0.0):
     # box corners in image order (x0y0, x1y0, x1y1, x0y1) with the image's y down: clockwise on the ground
     lats = (lat + half_deg, lat + half_deg, lat - half_deg, lat - half_deg)
     lons = (lon - half_deg, lon + half_deg, lon + half_deg, lon - half_deg)
-    return Crowd(crowd_id, lat, lon, lats, lons, ve, vn, r95, quality, 0)
+    return Crowd(crowd_id, lat, lon, lats, lons, ve, vn, r95, quality, 0, unseen_s)
 
 
 def _picture():
     p = Picture("demo", max_age_s=5.0)
     p.add_status(Status("ugv1", "ugv", T0, "up", 0, 1))
-    still = _crowd(7, LAT + 1e-3, r95=0.0, ve=0.0, vn=0.0, half_deg=0.0)    # no footprint area, no circle
+    still = _crowd(7, LAT + 1e-3, r95=0.0, ve=0.0, vn=0.0, half_deg=0.0, unseen_s=2.5)  # no area, no circle; unseen
     p.add_crowds(Crowds("loc1", "uav1", T0, "least_squares", ("ugv1",), (), (_crowd(3), still)))
     p.add_crowds(Crowds("loc1", "uav1", T0 + 1.0, "least_squares", ("ugv1",), (), (_crowd(3, LAT + 1e-5), still)))
     p.add_fix(Fix("ugv1", T0 + 0.5, LAT - 1e-3, LON, 1300.0, 90.0, 0.5, 1.0, 0.0))
@@ -128,6 +128,8 @@ def test_geojson_snapshot_is_valid_rfc7946():
     assert (props["id"], props["radius95_m"], props["quality"]) == (3, 2.5, "least_squares")
     assert (props["v_east_m_s"], props["v_north_m_s"]) == (1.2, -0.4)
     assert props["course_deg"] == pytest.approx(math.degrees(math.atan2(1.2, -0.4)), abs=0.05)   # 108.4
+    assert props["unseen_s"] == 0.0
+    assert [f["properties"]["unseen_s"] for f in fc["features"] if f["properties"].get("id") == 7] == [2.5]
     uav = fc["features"][4]["properties"]
     assert uav["vehicle"] == "uav1" and uav["heading_deg"] is None          # unknown heading -> null
     assert fc["features"][5]["properties"]["heading_deg"] == 90.0
@@ -261,8 +263,10 @@ def test_cot_crowd_event():
     assert float(tr.get("course")) == pytest.approx(108.4, abs=0.1)
     assert float(tr.get("speed")) == pytest.approx(math.hypot(1.2, 0.4), abs=0.01)
     assert ev.find("detail/contact").get("callsign") == "crowd 3"
-    assert _ref_mgrs(LAT + 1e-5, LON) in ev.findtext("detail/remarks")
+    assert _ref_mgrs(LAT + 1e-5, LON) in ev.findtext("detail/remarks") and "unseen" not in ev.findtext("detail/remarks")
     assert len(cot.crowd_event(c, 5.0).encode()) < 1400                   # one unfragmented UDP datagram
+    predicted = ET.fromstring(cot.crowd_event(_picture().snapshot(T0 + 1.0).crowds[1], 5.0))   # crowd 7, unseen 2.5 s
+    assert predicted.findtext("detail/remarks").endswith("unseen 2.5 s: predicted")
 
 
 @pytest.mark.parametrize("vehicle, want_type, want_course", [
@@ -349,8 +353,8 @@ def test_csv_reads_back_with_mgrs():
     text = crowd_csv.HEADER + crowd_csv.rows(snap.crowds)
     rows = list(csv.DictReader(io.StringIO(text)))
     assert list(rows[0]) == ["stamp_s", "crowd_id", "lat_deg", "lon_deg", "mgrs", "radius95_m", "quality",
-                             "v_east_m_s", "v_north_m_s"]
-    assert len(rows) == 2
+                             "v_east_m_s", "v_north_m_s", "unseen_s"]
+    assert len(rows) == 2 and [r["unseen_s"] for r in rows] == ["0.00", "2.50"]   # seen; predicted
     for r, c in zip(rows, snap.crowds):
         assert int(r["crowd_id"]) == c.crowd.crowd_id and float(r["stamp_s"]) == pytest.approx(c.stamp_s)
         assert float(r["lat_deg"]) == pytest.approx(c.crowd.lat_deg, abs=1e-7)

@@ -168,7 +168,7 @@ def test_crowds_track_mgrs_arrow_lost_and_dropped():
     assert len(c3["track"]) == 5 and _local(*c3["track"][-1]) == pytest.approx((4.0, 0.0), abs=0.01)
     assert _local(*c3["arrow_tip"]) == pytest.approx((4.0 + 5.0, 10.0), abs=0.01)   # 5 s at (1, 2) m/s
     assert c3["mgrs"].startswith("12RVV") and len(c3["mgrs"]) == 15
-    assert len(c3["footprint"]) == 4 and c3["quality"] == "exact" and c3["radius95_m"] == 1.5
+    assert len(c3["footprint"]) == 4 and c3["quality"] == "exact" and c3["radius95_m"] == 1.5 and c3["unseen_s"] == 0.0
     assert snap["frames"]["loc1"]["quality"] == "exact"
     # crowd 4 is no longer reported: lost (drawn faded) for crowd_keep_s, then dropped
     view.on_crowds(k, Crowds("loc1", "uav1", T0 + 5, "exact", ("ugv1",), (), (_crowd(3, 5.0, 0.0),)), T0 + 5)

@@ -1,4 +1,5 @@
 import math
+from dataclasses import replace
 
 import msgpack
 import pytest
@@ -47,6 +48,8 @@ def test_nested_round_trip():
     c = Crowds("loc1", "uav1", 1.7e9, "exact", ("ugv1",), (),
                (Crowd(1, 31.0, -111.0, (31.0,) * 4, (-111.0,) * 4, 1.0, 0.0, 0.5, "exact", 0),))
     assert decode(Crowds, encode(c)) == c
+    coasted = Crowds("loc1", "uav1", 1.7e9, "exact", (), (), (replace(c.crowds[0], unseen_s=2.5),))
+    assert decode(Crowds, encode(coasted)).crowds[0].unseen_s == 2.5
     st = Status("ugv1", "ugv", 1.7e9, "up", 0, 3, 4, {"crowds_latency_p99_ms": 3.5}, "fine")
     assert decode(Status, encode(st)) == st
 
@@ -145,6 +148,7 @@ def test_detections_rules(data, field):
     [
         (Crowd(1, 31.0, -111.0, (31.0,) * 4, (-111.0,) * 3, 1.0, 0.0, 0.5, "exact", 0), "footprint_lon_deg"),  # 4 lat, 3 lon
         (Crowd(1, 31.0, -111.0, (), (), 1.0, 0.0, 0.5, "great", 0), "quality"),                    # no such quality
+        (Crowd(1, 31.0, -111.0, (), (), 1.0, 0.0, 0.5, "exact", 0, -0.1), "unseen_s"),             # unseen < 0 s
         (Frame("uav1", 1.7e9, 1, 4, 2, "bgr8", b"\x00" * 23), "data"),                             # 4x2x3 needs 24 bytes
         (Frame("uav1", 1.7e9, 1, 4, 2, "png", b"\x00"), "encoding"),                               # unknown encoding
         (Status("ugv1", "boat", 1.7e9, "up", 0, 0), "service"),                                   # unknown service

@@ -89,7 +89,7 @@ def test_the_envelope_schema_dispatches_on_the_schema_name():
         (s["$id"], Resource.from_contents(s)) for s in protocol.all_schemas().values())
     env = jsonschema.Draft202012Validator(protocol.envelope_schema(), registry=registry)
     crowds = next(m for m in SAMPLES if isinstance(m, Crowds))
-    good = {"schema": "crowds/2", "data": wire_data(encode(crowds))}
+    good = {"schema": "crowds/3", "data": wire_data(encode(crowds))}
     env.validate(good)
     assert not env.is_valid({"schema": "fix/2", "data": good["data"]})      # a crowds map is no fix
     assert not env.is_valid({"schema": "crowds/9", "data": good["data"]})   # an unknown version
@@ -169,7 +169,7 @@ def test_the_schema_refuses_what_the_codec_refuses(cls, data, ok):
 def test_rules_read_from_the_source():
     crowds = protocol.json_schema(Crowds)
     assert crowds["properties"]["quality"]["enum"] == ["exact", "least_squares", "robust", "suspect", "held", "pose", "failed"]
-    assert crowds["x-zenoh-encoding"] == "application/msgpack;crowds/2"
+    assert crowds["x-zenoh-encoding"] == "application/msgpack;crowds/3"
     fr = protocol.json_schema(Frame)["properties"]
     assert fr["encoding"]["enum"] == ["jpeg", "bgr8"] and fr["width_px"]["maximum"] == 8192
     fix = protocol.json_schema(Fix)["properties"]

@@ -300,7 +300,7 @@ class TeamView:
         age = max(now_s - rec.stamp_s, 0.0)
         return {"id": int(c.crowd_id), "source": rec.source, "lat": _r(c.lat_deg), "lon": _r(c.lon_deg),
                 "mgrs": latlon_to_mgrs(c.lat_deg, c.lon_deg, 5), "radius95_m": _r(c.radius95_m, 2),
-                "quality": c.quality, "n_outliers": int(c.n_outliers),
+                "quality": c.quality, "n_outliers": int(c.n_outliers), "unseen_s": _r(c.unseen_s, 1),
                 "footprint": [[_r(a), _r(b)] for a, b in zip(c.footprint_lat_deg, c.footprint_lon_deg)],
                 "v_east_m_s": _r(c.v_east_m_s, 2), "v_north_m_s": _r(c.v_north_m_s, 2), "speed_m_s": _r(speed, 2),
                 "arrow_tip": [_r(tip[0]), _r(tip[1])] if speed >= 0.05 else None, "arrow_s": cfg.arrow_s,

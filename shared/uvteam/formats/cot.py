@@ -70,7 +70,8 @@ def crowd_event(c: CrowdSeen, stale_s: float, cot_type: str = CROWD_TYPE, how: s
     course, speed = course_speed(cr.v_east_m_s, cr.v_north_m_s)
     mgrs = mgrs_or_empty(cr.lat_deg, cr.lon_deg)
     remarks = (f"uvteam crowd {cr.crowd_id} from {c.source}: MGRS {mgrs or '-'}, 95 % radius {cr.radius95_m:.1f} m, "
-               f"quality {cr.quality}, v_east {cr.v_east_m_s:+.2f} m/s, v_north {cr.v_north_m_s:+.2f} m/s")
+               f"quality {cr.quality}, v_east {cr.v_east_m_s:+.2f} m/s, v_north {cr.v_north_m_s:+.2f} m/s"
+               + (f", unseen {cr.unseen_s:.1f} s: predicted" if cr.unseen_s > 0 else ""))
     return _event(c.uid, cot_type, how, c.stamp_s, stale_s, cr.lat_deg, cr.lon_deg, UNKNOWN,
                   sigma_from_radius95(cr.radius95_m), UNKNOWN, f"crowd {cr.crowd_id}",
                   0.0 if course is None else course, speed if course is not None else 0.0, remarks)

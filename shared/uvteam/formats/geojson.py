@@ -45,7 +45,7 @@ def crowd_features(c: CrowdSeen, circle_vertices: int = 36) -> list[dict[str, An
              "time": iso8601(c.stamp_s), "radius95_m": cr.radius95_m, "quality": cr.quality,
              "v_east_m_s": cr.v_east_m_s, "v_north_m_s": cr.v_north_m_s, "speed_m_s": round(speed, 3),
              "course_deg": None if course is None else round(course, 1), "mgrs": mgrs_or_empty(cr.lat_deg, cr.lon_deg),
-             "n_outliers": cr.n_outliers}
+             "n_outliers": cr.n_outliers, "unseen_s": cr.unseen_s}
     out = [{"type": "Feature", "id": c.uid, "geometry": {"type": "Point", "coordinates": _pos(cr.lon_deg, cr.lat_deg)},
             "properties": props}]
     hull = hull_ring(cr.footprint_lat_deg, cr.footprint_lon_deg)

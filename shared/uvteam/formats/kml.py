@@ -69,7 +69,8 @@ def _describe(c: CrowdSeen) -> str:
     return (f"crowd {cr.crowd_id} from {c.source} at {iso8601(c.stamp_s)}; "
             f"MGRS {mgrs_or_empty(cr.lat_deg, cr.lon_deg)}; "
             f"95 % radius {cr.radius95_m:.1f} m; quality {cr.quality}; speed {speed:.1f} m/s"
-            + ("" if course is None else f" toward {course:.0f} deg"))
+            + ("" if course is None else f" toward {course:.0f} deg")
+            + (f"; unseen {cr.unseen_s:.1f} s: predicted" if cr.unseen_s > 0 else ""))
 
 
 def document(snap: Snapshot, crowd_tracks: Mapping[str, tuple[TrackPoint, ...]],

@@ -5,7 +5,7 @@ What a recording holds:
 
 - every payload as it came, on a channel per key (topic = the zenoh key, ``uvteam/<team>/<vehicle>/<topic>``),
   message encoding ``msgpack``, with the message's schema attached (schema name = the uvteam schema,
-  e.g. ``crowds/2``; schema encoding ``jsonschema``: :func:`uvteam.protocol.wire_schema`) and the zenoh
+  e.g. ``crowds/3``; schema encoding ``jsonschema``: :func:`uvteam.protocol.wire_schema`) and the zenoh
   encoding in the channel's metadata (``zenoh_encoding``). Log time = when the recorder received it;
   publish time = the message's own ``stamp_s`` when it has one; ``sequence`` = arrival order;
 - liveliness: ``uvteam/<team>/<vehicle>/alive`` channels (``json``, schema ``uvteam.alive``), one

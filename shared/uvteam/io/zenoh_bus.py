@@ -152,7 +152,7 @@ class ZenohBus(Decoding):
 
     def publish(self, key: str, msg: Any, *, express: bool = True) -> None:
         """Encode, validate and put ``msg`` on ``key``; zenoh's encoding names its schema
-        (``application/msgpack;crowds/2``), so a receiver can tell what came without decoding it."""
+        (``application/msgpack;crowds/3``), so a receiver can tell what came without decoding it."""
         raw = messages.encode(msg)
         pub = self._pubs.get((key, type(msg)))
         if pub is None:

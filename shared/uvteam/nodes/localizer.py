@@ -235,8 +235,8 @@ class LocalizerNode:
         c, tr = r.estimate, r.track
         pts = np.vstack([[c.east_m, c.north_m], c.footprint_en_m])
         lat, lon = self.frame.ground_to_wgs84(pts[:, 0], pts[:, 1])
-        return Crowd(tr.track_id, float(lat[0]), float(lon[0]), tuple(map(float, lat[1:])), tuple(map(float, lon[1:])),
-                     tr.v_east_m_s, tr.v_north_m_s, c.radius95_m, c.quality.value, c.n_outliers)
+        return Crowd(r.crowd_id, float(lat[0]), float(lon[0]), tuple(map(float, lat[1:])), tuple(map(float, lon[1:])),
+                     tr.v_east_m_s, tr.v_north_m_s, c.radius95_m, c.quality.value, c.n_outliers, r.unseen_s)
 
     def step(self, timeout_s: float) -> None:
         det = self.frames.take(timeout_s)

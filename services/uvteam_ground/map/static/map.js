@@ -203,7 +203,7 @@
 
   // -- crowds -----------------------------------------------------------------------------------
   function crowdTip(c) {
-    return `<b>crowd ${c.id}</b>${c.lost ? " (lost)" : ""}<br>${fmtLatLon(c.lat, c.lon)}<br>MGRS ${esc(spacedMgrs(c.mgrs))}` +
+    return `<b>crowd ${c.id}</b>${c.lost ? " (lost)" : ""}${c.unseen_s > 0 ? `, unseen ${c.unseen_s.toFixed(1)} s: predicted` : ""}<br>${fmtLatLon(c.lat, c.lon)}<br>MGRS ${esc(spacedMgrs(c.mgrs))}` +
       `<br>95 % radius ${c.radius95_m.toFixed(1)} m, fit ${esc(c.quality)}${c.n_outliers ? `, ${c.n_outliers} outliers` : ""}` +
       `<br>${c.speed_m_s.toFixed(1)} m/s (E ${c.v_east_m_s.toFixed(1)}, N ${c.v_north_m_s.toFixed(1)}), ${age(c.age_s)} ago`;
   }
@@ -211,7 +211,7 @@
   function drawCrowd(c) {
     const k = `${c.source}:${c.id}`;
     let e = S.crowds[k];
-    const color = qcolor(c.quality), fade = c.stale ? 0.4 : 1.0;
+    const color = qcolor(c.quality), fade = c.stale ? 0.4 : c.unseen_s > 0 ? 0.6 : 1.0;
     const ll = [c.lat, c.lon], cls = `crowd-${c.id}`;
     if (!e) {
       e = S.crowds[k] = {};
@@ -283,7 +283,7 @@
     document.querySelector("#vehicles tbody").innerHTML = rows.join("");
     const crowds = st.crowds.map((c) =>
       `<div class="crowd-row${c.lost ? " lost" : ""}" style="border-left-color:${qcolor(c.quality)}" data-crowd="${c.id}" data-lat="${c.lat}" data-lon="${c.lon}">` +
-      `<b>#${c.id}</b> ${c.lost ? "(lost) " : ""}${esc(c.quality)}, r95 ${c.radius95_m.toFixed(1)} m, ${c.speed_m_s.toFixed(1)} m/s` +
+      `<b>#${c.id}</b> ${c.lost ? "(lost) " : ""}${c.unseen_s > 0 ? `(unseen ${c.unseen_s.toFixed(1)} s) ` : ""}${esc(c.quality)}, r95 ${c.radius95_m.toFixed(1)} m, ${c.speed_m_s.toFixed(1)} m/s` +
       `<br>${fmtLatLon(c.lat, c.lon)}<br><span class="mgrs">${esc(spacedMgrs(c.mgrs))}</span></div>`);
     document.getElementById("crowds").innerHTML = crowds.join("") || '<p class="muted">none</p>';
   }
