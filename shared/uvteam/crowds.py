@@ -42,7 +42,13 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    the time unseen. It ends when a crowd is reported within ``near_m`` of where it should be (seen
    again, or walked into another crowd's blob) or after ``coast_s``. A map that drops a crowd the
    moment its walkers blend in shows a crowd that vanished; one that holds it too long shows a crowd
-   that is not there: ``coast_s`` is the bargain (docs/results-worlds.md measures it).
+   that is not there: ``coast_s`` is the bargain (docs/results-worlds.md measures it);
+7. a crowd seen with fewer moving pixels than it usually has (its median over the last ``window_s``)
+   is partly out of sight, and what is seen of it lies to one side: with ``seen_whole`` of them or more
+   it is where it is seen, with ``seen_none`` or fewer where its walk takes it (step 6), and in
+   between at a point between the two by the share seen, its radius the larger of the two. While it is
+   partly seen its walk is the one it had when seen whole (what is seen of it would pull the walk
+   aside, and the walk is what steps 6 and 7 place it by); its track keeps what was seen.
 """
 
 from __future__ import annotations
@@ -76,6 +82,8 @@ class GroupingConfig:
     coast_s: float = 5.0          # a crowd gone unseen is reported where its walk takes it this long (0: never)
     coast_min_seen_s: float = 2.0  # ... if it was seen this long first
     coast_sigma_v_m_s: float = 0.3  # ... its velocity known no better than this per axis (1 sigma)
+    seen_whole: float = 0.85      # a crowd seen with this share of its usual moving pixels is seen whole;
+    seen_none: float = 0.5        # ... with this share or less, where its walk takes it (step 7)
 
     def __post_init__(self) -> None:
         for name in ("near_m", "window_s", "min_span_s", "max_rel_speed_m_s"):
@@ -85,6 +93,8 @@ class GroupingConfig:
             raise ValueError("straggler_ratio must be in [0, 1], near_gap_m and significance >= 0")
         if not (self.coast_s >= 0.0 and self.coast_min_seen_s >= 0.0 and self.coast_sigma_v_m_s >= 0.0):
             raise ValueError("coast_s, coast_min_seen_s and coast_sigma_v_m_s must be >= 0")
+        if not 0.0 <= self.seen_none < self.seen_whole:
+            raise ValueError(f"need 0 <= seen_none < seen_whole, got {self.seen_none}, {self.seen_whole}")
         if not (self.apart_m >= self.near_m and self.apart_frames >= 1):
             raise ValueError(f"apart_m must be >= near_m and apart_frames >= 1, got {self.apart_m}, {self.apart_frames}")
 
@@ -252,31 +262,41 @@ class ReportedCrowd:
     crowd_id: int                      # the id the team knows it by: its track's, or that of the crowd it was
                                        # before it went unseen (step 6)
     unseen_s: float = 0.0
+    partly_seen: bool = False          # placed towards where its walk takes it (step 7)
 
 
 @dataclass(frozen=True, slots=True)
 class LastSeen:
-    """A reported crowd as it was last seen (step 6)."""
+    """A reported crowd as it was last seen, and its walk when last seen whole (steps 6, 7)."""
 
     crowd: ReportedCrowd
     seen_s: float
-    en_m: tuple[float, float]          # where its straight walk over the last scatter_s had it then,
+    walk_s: float                      # when it was last seen whole; then
+    en_m: tuple[float, float]          # ... where its straight walk over the last scatter_s had it,
     v_en_m_s: tuple[float, float]      # ... that walk's velocity
-    sigma_v_m_s: float                 # ... and the velocity's 1-sigma per axis
+    sigma_v_m_s: float                 # ... and its 1-sigma per axis (inf: too few points for a walk),
+    r95_m: float                       # ... and its 95 % radius
+    areas: tuple[tuple[float, float], ...] = ()   # (stamp s, moving pixels) over the last window_s
+
+    def walk_at(self, stamp_s: float, cfg: GroupingConfig) -> tuple[np.ndarray, float]:
+        """Where its walk takes it at ``stamp_s`` (east, north m), and the 95 % radius that holds it."""
+        dt = stamp_s - self.walk_s
+        sigma_v = max(self.sigma_v_m_s if np.isfinite(self.sigma_v_m_s) else 0.0, cfg.coast_sigma_v_m_s)
+        return np.add(self.en_m, np.multiply(self.v_en_m_s, dt)), float(np.hypot(self.r95_m, R95_PER_SIGMA * sigma_v * dt))
 
 
 def _remembered(state: GroupingState, out: list[ReportedCrowd], stamp_s: float, cfg: GroupingConfig,
                 live: Mapping[int, CrowdTrack]) -> tuple[dict[int, LastSeen], dict[int, int], list[ReportedCrowd]]:
-    """Step 6: the crowds reported under the ids the team knows them by, what is remembered of them,
-    the ids carried over, and the crowds unseen this frame still reported."""
+    """Steps 6 and 7: the crowds reported under the ids the team knows them by (placed by their walk
+    where partly seen), what is remembered of them, the ids carried over, and the crowds unseen this
+    frame still reported."""
     alias = {t: c for t, c in state.alias.items() if t in live}
     out[:] = [replace(r, crowd_id=alias.get(r.track.track_id, r.crowd_id)) for r in out]
     last = dict(state.last_seen)
     seen = np.array([[r.estimate.east_m, r.estimate.north_m] for r in out], float).reshape(-1, 2)
     taken = {r.crowd_id for r in out}
     for cid, ls in list(last.items()):    # found again: a new track where the crowd should be
-        at = np.add(ls.en_m, np.multiply(ls.v_en_m_s, stamp_s - ls.seen_s))
-        d = np.hypot(*(seen - at).T) if len(seen) else np.empty(0)
+        d = np.hypot(*(seen - ls.walk_at(stamp_s, cfg)[0]).T) if len(seen) else np.empty(0)
         if cid in taken or cid in live or not len(d) or d.min() >= cfg.near_m:
             continue
         k = int(np.argmin(d))
@@ -292,30 +312,51 @@ def _remembered(state: GroupingState, out: list[ReportedCrowd], stamp_s: float, 
             ids[k] = r.track.track_id
             out[k] = replace(r, crowd_id=r.track.track_id)
             alias.pop(r.track.track_id, None)
-    for r in out:
-        tr, c = r.track, r.estimate
+    for k, r in enumerate(out):
+        tr, prev = r.track, last.get(r.crowd_id)
+        areas = tuple(a for a in (prev.areas if prev is not None else ()) if a[0] >= stamp_s - cfg.window_s - 1e-6)
+        areas += ((stamp_s, r.estimate.area_px),)
+        out[k] = r = _partly_seen(r, prev, stamp_s, cfg)
+        if r.partly_seen:      # its walk seen whole goes on: the part seen would pull it aside
+            last[r.crowd_id] = replace(prev, crowd=r, seen_s=stamp_s, areas=areas)
+            continue
+        c = r.estimate
         walk = straight_walk(tuple(p for p in tr.trail if p[0] >= stamp_s - cfg.scatter_s - 1e-6), stamp_s,
                              cfg.scatter_min_points)
         at, v, sigma_v = walk or ((c.east_m, c.north_m), (tr.v_east_m_s, tr.v_north_m_s), float("inf"))
-        last[r.crowd_id] = LastSeen(r, stamp_s, at, v, sigma_v)
+        last[r.crowd_id] = LastSeen(r, stamp_s, stamp_s, at, v, sigma_v, c.radius95_m, areas)
     coasted = []
     for cid, ls in list(last.items()):
         dt = stamp_s - ls.seen_s
         if dt <= 0.0:
             continue
-        c = ls.crowd.estimate
-        at = np.array([ls.en_m[0] + ls.v_en_m_s[0] * dt, ls.en_m[1] + ls.v_en_m_s[1] * dt])
-        de, dn = at[0] - c.east_m, at[1] - c.north_m
+        at, r95 = ls.walk_at(stamp_s, cfg)
         if (dt > cfg.coast_s or not ls.seen_s - ls.crowd.track.first_s >= cfg.coast_min_seen_s
                 or (len(seen) and np.hypot(*(seen - at).T).min() < cfg.near_m)):
             del last[cid]
             continue
-        sigma_v = max(ls.sigma_v_m_s if np.isfinite(ls.sigma_v_m_s) else 0.0, cfg.coast_sigma_v_m_s)
-        grown = float(np.hypot(c.radius95_m, R95_PER_SIGMA * sigma_v * dt))
-        moved = replace(c, east_m=float(at[0]), north_m=float(at[1]), footprint_en_m=c.footprint_en_m + [de, dn],
-                        radius95_m=grown)
-        coasted.append(replace(ls.crowd, estimate=moved, unseen_s=dt))
+        c = ls.crowd.estimate
+        moved = replace(c, east_m=float(at[0]), north_m=float(at[1]), footprint_en_m=c.footprint_en_m + (at - [c.east_m, c.north_m]),
+                        radius95_m=max(r95, c.radius95_m))
+        coasted.append(replace(ls.crowd, estimate=moved, unseen_s=dt, partly_seen=False))
     return last, alias, coasted
+
+
+def _partly_seen(r: ReportedCrowd, ls: LastSeen | None, stamp_s: float, cfg: GroupingConfig) -> ReportedCrowd:
+    """Step 7: a crowd seen with fewer moving pixels than it usually has, placed between where it is
+    seen and where its walk takes it (``ls``: the crowd as last seen, before this frame)."""
+    if ls is None or not ls.seen_s < stamp_s or len(ls.areas) < cfg.scatter_min_points:
+        return r
+    c = r.estimate
+    usual = float(np.median([a for _, a in ls.areas]))
+    share = (c.area_px / usual - cfg.seen_none) / (cfg.seen_whole - cfg.seen_none) if usual > 0 else 1.0
+    if not share < 1.0:
+        return r
+    share = max(share, 0.0)
+    (pe, pn), walk_r95 = ls.walk_at(stamp_s, cfg)
+    e, n = pe + share * (c.east_m - pe), pn + share * (c.north_m - pn)
+    placed = replace(c, east_m=float(e), north_m=float(n), radius95_m=max(c.radius95_m, walk_r95))   # footprint: as seen
+    return replace(r, estimate=placed, partly_seen=True)
 
 
 def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], stamp_s: float,

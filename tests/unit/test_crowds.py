@@ -296,3 +296,42 @@ def test_a_crowd_walking_into_another_is_not_reported_twice():
 def test_no_coasting_when_coast_s_is_zero():
     frames = walk_with_gap(cfg=GroupingConfig(coast_s=0.0))
     assert all(not o for t, _, o in frames if 4.0 <= t < 7.0)
+
+
+# --- step 7: a crowd partly out of sight -------------------------------------------------------------
+
+def partly_seen(share, offset_m=2.0, cfg=GroupingConfig()):
+    """A crowd walking east at 1.4 m/s seen whole (20 px) for 4 s, then with ``share`` of its moving
+    pixels and its centre ``offset_m`` north of the truth: what is reported then, and the truth."""
+    state = GroupingState()
+    for f in range(41):
+        t = f / 10
+        if f < 40:
+            est = estimate(1.4 * t, 0.0, 20.0)
+        else:
+            est = estimate(1.4 * t, offset_m, 20.0 * share)
+        state, out = report_crowds(state, (est,), T0 + t, cfg)
+    (r,) = out
+    return r, (1.4 * 4.0, 0.0)
+
+
+@pytest.mark.parametrize("share, north_m", [(1.0, 2.0), (0.9, 2.0), (0.675, 1.0), (0.5, 0.0), (0.2, 0.0)])
+def test_a_crowd_partly_seen_is_placed_by_the_share_seen(share, north_m):
+    # seen_whole 0.85, seen_none 0.5: at 0.675 half way between where it is seen and its walk
+    r, (e, n) = partly_seen(share)
+    assert r.unseen_s == 0.0
+    assert (r.estimate.east_m, r.estimate.north_m) == pytest.approx((e, north_m), abs=1e-6)
+    assert r.estimate.footprint_en_m.mean(0) == pytest.approx((e, 2.0))      # the footprint: as seen
+    assert r.estimate.radius95_m >= 1.0
+
+
+def test_a_crowd_partly_seen_keeps_its_walk_as_seen():
+    # what was placed never enters the walk: two frames partly seen in a row, the second placed alike
+    cfg = GroupingConfig()
+    state = GroupingState()
+    for f in range(42):
+        t = f / 10
+        est = estimate(1.4 * t, 0.0, 20.0) if f < 40 else estimate(1.4 * t, 3.0, 8.0)
+        state, out = report_crowds(state, (est,), T0 + t, cfg)
+    assert out[0].estimate.north_m == pytest.approx(0.0, abs=1e-6)
+    assert out[0].track.trail[-1][2] == pytest.approx(3.0)       # the track holds what was seen
