@@ -35,8 +35,8 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    part's track (id, velocity);
 6. a crowd once reported and seen for ``coast_min_seen_s`` that goes unseen (its walkers on ground of
    their own shade, under a canopy, a vehicle's blob over them) is still reported for ``coast_s``,
-   where the straight walk fitted to its last ``scatter_s`` of estimates takes it (a crowd going out of
-   sight goes part by part, so its last estimates lag; a walk over seconds less so), flagged with how long
+   where its walk takes it: the straight line fitted to its last ``scatter_s`` of estimates while it was
+   seen whole (a crowd going out of sight goes part by part, step 7), flagged with how long
    it has been unseen (``ReportedCrowd.unseen_s``), its radius grown by the walk's velocity error
    (the fit's standard error, at least ``coast_sigma_v_m_s`` per axis: crowds change pace) times
    the time unseen. It ends when a crowd is reported within ``near_m`` of where it should be (seen
