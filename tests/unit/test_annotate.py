@@ -4,6 +4,7 @@ the video file read back with cv2."""
 import threading
 import time
 import urllib.request
+from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -86,6 +87,16 @@ def test_crowds_are_placed_where_the_landmarks_say(landmarks, placed):
         assert tags[0].xy_px == pytest.approx((290.0, 180.0), abs=0.5)
     else:
         assert tags[0].xy_px is None
+    assert tags[0].unseen_s == 0.0
+
+
+def test_a_crowd_not_seen_says_so():
+    c = crowds()
+    held = replace(c, crowds=(replace(c.crowds[0], unseen_s=1.5),))
+    (tag,) = place_crowds(detections(), held, ugv_positions())
+    assert tag.unseen_s == 1.5 and tag.xy_px == pytest.approx((290.0, 180.0), abs=0.5)
+    assert not np.array_equal(annotate(np.zeros((H, W, 3), np.uint8), detections(), held, ugv_positions()),
+                              annotate(np.zeros((H, W, 3), np.uint8), detections(), c, ugv_positions()))
 
 
 def test_no_crowds_message_draws_detections_only():

@@ -48,6 +48,7 @@ class CrowdTag:
     radius95_m: float
     quality: str
     xy_px: tuple[float, float] | None      # where the crowd is in the image; None when it cannot be placed
+    unseen_s: float = 0.0                  # > 0: not seen in this frame, where its walk takes it
 
 
 def place_crowds(det: Detections, crowds: Crowds | None,
@@ -75,7 +76,7 @@ def place_crowds(det: Detections, crowds: Crowds | None,
         if xy is not None and np.isfinite(xy[i]).all() and -det.width_px <= xy[i][0] <= 2 * det.width_px \
                 and -det.height_px <= xy[i][1] <= 2 * det.height_px:
             p = (float(xy[i][0]), float(xy[i][1]))
-        out.append(CrowdTag(c.crowd_id, c.lat_deg, c.lon_deg, c.radius95_m, c.quality, p))
+        out.append(CrowdTag(c.crowd_id, c.lat_deg, c.lon_deg, c.radius95_m, c.quality, p, c.unseen_s))
     return out
 
 
@@ -124,6 +125,7 @@ def annotate(img: np.ndarray, det: Detections, crowds: Crowds | None = None,
     _text(out, head, (6, line - 4), scale * 0.8, (255, 255, 255))
     for i, t in enumerate(tags):
         _text(out, f"crowd #{t.crowd_id}: {t.lat_deg:.6f}, {t.lon_deg:.6f}  r95 {t.radius95_m:.1f} m  {t.quality}"
+                   + (f"  unseen {t.unseen_s:.1f} s" if t.unseen_s > 0 else "")
                    + ("" if t.xy_px is not None else "  (not placed)"),
               (6, line * (i + 2)), scale * 0.75, TAG_BGR)
     if crowds is not None and not tags:
