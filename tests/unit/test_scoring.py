@@ -2,7 +2,7 @@
 
 from uvteam.geo import LocalFrame
 from uvteam.messages import Crowd, Crowds, Truth, TruthCrowd
-from uvteam.scoring import BusScorer
+from uvteam.scoring import BusScorer, summarize
 
 T0 = 1_790_000_000.0
 LAT, LON = 31.4850, -111.5440
@@ -23,3 +23,16 @@ def test_an_unanswered_first_frame_is_the_runs_start():
     assert times == [0.0, 0.1, 0.2]
     assert [round(t, 3) for t in board.times_s] == [0.1, 0.2]
     assert (board.frames, len(board.errors_m)) == (3, 2)
+
+
+def test_predicted_frames_are_scored_and_counted_apart():
+    # a crowd held unseen (unseen_s > 0) is scored as any other, and said to be predicted
+    scorer = BusScorer(LocalFrame(LAT, LON))
+    for k, unseen in enumerate((0.0, 0.1, 0.2, 0.0)):
+        stamp = T0 + 0.1 * k
+        scorer.on_truth("t", Truth(stamp, k, (TruthCrowd(LAT, LON, 10),), ()))
+        crowd = Crowd(1, LAT, LON, (), (), 0.0, 0.0, 1.0, "least_squares", 0, unseen)
+        scorer.on_crowds("c", Crowds("loc1", "uav1", stamp, "least_squares", (), (), (crowd,)))
+    board = scorer.finish()
+    assert board.unseen_s == [0.0, 0.1, 0.2, 0.0]
+    assert summarize([board])["predicted"] == 2 and len(board.errors_m) == 4
