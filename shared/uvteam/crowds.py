@@ -277,7 +277,6 @@ class LastSeen:
     sigma_v_m_s: float                 # ... and its 1-sigma per axis (inf: too few points for a walk),
     r95_m: float                       # ... and its 95 % radius
     areas: tuple[tuple[float, float], ...] = ()   # (stamp s, moving pixels) over the last window_s
-    since_s: float = float("nan")      # when the crowd was first seen (under any of its tracks)
 
     def walk_at(self, stamp_s: float, cfg: GroupingConfig) -> tuple[np.ndarray, float]:
         """Where its walk takes it at ``stamp_s`` (east, north m), and the 95 % radius that holds it."""
@@ -325,15 +324,14 @@ def _remembered(state: GroupingState, out: list[ReportedCrowd], stamp_s: float, 
         walk = straight_walk(tuple(p for p in tr.trail if p[0] >= stamp_s - cfg.scatter_s - 1e-6), stamp_s,
                              cfg.scatter_min_points)
         at, v, sigma_v = walk or ((c.east_m, c.north_m), (tr.v_east_m_s, tr.v_north_m_s), float("inf"))
-        since = prev.since_s if prev is not None else tr.first_s    # a crowd found again keeps its age
-        last[r.crowd_id] = LastSeen(r, stamp_s, stamp_s, at, v, sigma_v, c.radius95_m, areas, since)
+        last[r.crowd_id] = LastSeen(r, stamp_s, stamp_s, at, v, sigma_v, c.radius95_m, areas)
     coasted = []
     for cid, ls in list(last.items()):
         dt = stamp_s - ls.seen_s
         if dt <= 0.0:
             continue
         at, r95 = ls.walk_at(stamp_s, cfg)
-        if (dt > cfg.coast_s or not ls.seen_s - ls.since_s >= cfg.coast_min_seen_s
+        if (dt > cfg.coast_s or not ls.seen_s - ls.crowd.track.first_s >= cfg.coast_min_seen_s
                 or (len(seen) and np.hypot(*(seen - at).T).min() < cfg.near_m)):
             del last[cid]
             continue

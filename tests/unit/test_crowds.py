@@ -335,18 +335,3 @@ def test_a_crowd_partly_seen_keeps_its_walk_as_seen():
         state, out = report_crowds(state, (est,), T0 + t, cfg)
     assert out[0].estimate.north_m == pytest.approx(0.0, abs=1e-6)
     assert out[0].track.trail[-1][2] == pytest.approx(3.0)       # the track holds what was seen
-
-
-def test_a_crowd_found_again_keeps_its_age_and_is_held_again():
-    # seen 4 s, unseen 2 s, found again by a new track for 0.3 s, unseen again: held again at once
-    # (its age is the crowd's, not its new track's 0.3 s)
-    state, held = GroupingState(), []
-    for f in range(80):
-        t = f / 10
-        seen = t < 4.0 or 6.0 <= t < 6.3
-        est = (estimate(1.4 * t, 0.0, 20.0),) if seen else ()
-        state, out = report_crowds(state, est, T0 + t)
-        if t >= 6.3:
-            held.append(out)
-    assert all(len(o) == 1 and o[0].unseen_s > 0 for o in held[:10])
-    assert len({o[0].crowd_id for o in held[:10]}) == 1
