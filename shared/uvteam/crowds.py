@@ -33,8 +33,10 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    one); a crowd is the area-weighted mean of its parts (the detector's moving pixels), its footprint
    the box round theirs, its 95 % radius the largest of theirs, reported under its longest-seen
    part's track (id, velocity);
-6. a crowd once reported and seen for ``coast_min_seen_s`` that goes unseen (its walkers on ground of
-   their own shade, under a canopy, a vehicle's blob over them) is still reported for ``coast_s``,
+6. a crowd once reported whose track has been seen for ``coast_min_seen_s`` (a walk fitted over less
+   is no walk to hold it by; a crowd found again by a new track waits as long) that goes unseen (its
+   walkers on ground of their own shade, under a canopy, a vehicle's blob over them) is still
+   reported for ``coast_s``,
    where its walk takes it: the straight line fitted to its last ``scatter_s`` of estimates while it was
    seen whole (a crowd going out of sight goes part by part, step 7), flagged with how long
    it has been unseen (``ReportedCrowd.unseen_s``), its radius grown by the walk's velocity error
@@ -282,7 +284,8 @@ class LastSeen:
         """Where its walk takes it at ``stamp_s`` (east, north m), and the 95 % radius that holds it."""
         dt = stamp_s - self.walk_s
         sigma_v = max(self.sigma_v_m_s if np.isfinite(self.sigma_v_m_s) else 0.0, cfg.coast_sigma_v_m_s)
-        return np.add(self.en_m, np.multiply(self.v_en_m_s, dt)), float(np.hypot(self.r95_m, R95_PER_SIGMA * sigma_v * dt))
+        at = np.add(self.en_m, np.multiply(self.v_en_m_s, dt))
+        return at, float(np.hypot(self.r95_m, R95_PER_SIGMA * sigma_v * dt))
 
 
 def _remembered(state: GroupingState, out: list[ReportedCrowd], stamp_s: float, cfg: GroupingConfig,
@@ -336,8 +339,8 @@ def _remembered(state: GroupingState, out: list[ReportedCrowd], stamp_s: float, 
             del last[cid]
             continue
         c = ls.crowd.estimate
-        moved = replace(c, east_m=float(at[0]), north_m=float(at[1]), footprint_en_m=c.footprint_en_m + (at - [c.east_m, c.north_m]),
-                        radius95_m=max(r95, c.radius95_m))
+        moved = replace(c, east_m=float(at[0]), north_m=float(at[1]), radius95_m=max(r95, c.radius95_m),
+                        footprint_en_m=c.footprint_en_m + (at - [c.east_m, c.north_m]))
         coasted.append(replace(ls.crowd, estimate=moved, unseen_s=dt, partly_seen=False))
     return last, alias, coasted
 
@@ -355,7 +358,8 @@ def _partly_seen(r: ReportedCrowd, ls: LastSeen | None, stamp_s: float, cfg: Gro
     share = max(share, 0.0)
     (pe, pn), walk_r95 = ls.walk_at(stamp_s, cfg)
     e, n = pe + share * (c.east_m - pe), pn + share * (c.north_m - pn)
-    placed = replace(c, east_m=float(e), north_m=float(n), radius95_m=max(c.radius95_m, walk_r95))   # footprint: as seen
+    # the footprint stays as seen
+    placed = replace(c, east_m=float(e), north_m=float(n), radius95_m=max(c.radius95_m, walk_r95))
     return replace(r, estimate=placed, partly_seen=True)
 
 
