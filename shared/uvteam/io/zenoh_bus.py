@@ -165,8 +165,11 @@ class ZenohBus(Decoding):
 
     def put_raw(self, key: str, raw: bytes, encoding: str | None = None) -> None:
         """Send bytes as they are: a recording played back (``encoding`` as recorded, e.g.
-        ``application/msgpack;fix/2``), or garbage in fault-injection tests (plain ``application/msgpack``)."""
-        self.session.put(key, raw, encoding=self._zenoh.Encoding(encoding) if encoding else self._encoding)
+        ``application/msgpack;fix/2``), or garbage in fault-injection tests (plain ``application/msgpack``).
+        Blocking under congestion as :meth:`publish` does: zenoh's default drops, and a replay as fast as
+        it goes on a loaded machine lost a payload."""
+        self.session.put(key, raw, encoding=self._zenoh.Encoding(encoding) if encoding else self._encoding,
+                         congestion_control=self._zenoh.CongestionControl.BLOCK)
 
     def subscribe(self, keyexpr: str, cls: type, handler: Callable[[str, Any], None]) -> None:
         def on_sample(sample) -> None:
