@@ -36,12 +36,11 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
 6. a crowd once reported whose track has been seen for ``coast_min_seen_s`` (a walk fitted over less
    is no walk to hold it by; a crowd found again by a new track waits as long) that goes unseen (its
    walkers on ground of their own shade, under a canopy, a vehicle's blob over them) is still
-   reported for ``coast_s``,
-   where its walk takes it: the straight line fitted to its last ``scatter_s`` of estimates while it was
-   seen whole (a crowd going out of sight goes part by part, step 7), flagged with how long
-   it has been unseen (``ReportedCrowd.unseen_s``), its radius grown by the walk's velocity error
-   (the fit's standard error, at least ``coast_sigma_v_m_s`` per axis: crowds change pace) times
-   the time unseen. It ends when a crowd is reported within ``near_m`` of where it should be (seen
+   reported for ``coast_s`` where its walk takes it: the straight line fitted to its last
+   ``scatter_s`` of estimates while it was seen whole (a crowd going out of sight goes part by part,
+   step 7), flagged with how long it has been unseen (``ReportedCrowd.unseen_s``), its radius grown
+   by the walk's velocity error (the fit's standard error, at least ``coast_sigma_v_m_s`` per axis:
+   crowds change pace) times the time unseen. It ends when a crowd is reported within ``near_m`` of where it should be (seen
    again, or walked into another crowd's blob) or after ``coast_s``. A map that drops a crowd the
    moment its walkers blend in shows a crowd that vanished; one that holds it too long shows a crowd
    that is not there: ``coast_s`` is the bargain (docs/results-worlds.md measures it);
@@ -288,13 +287,14 @@ class LastSeen:
         return at, float(np.hypot(self.r95_m, R95_PER_SIGMA * sigma_v * dt))
 
 
-def _remembered(state: GroupingState, out: list[ReportedCrowd], stamp_s: float, cfg: GroupingConfig,
-                live: Mapping[int, CrowdTrack]) -> tuple[dict[int, LastSeen], dict[int, int], list[ReportedCrowd]]:
-    """Steps 6 and 7: the crowds reported under the ids the team knows them by (placed by their walk
-    where partly seen), what is remembered of them, the ids carried over, and the crowds unseen this
-    frame still reported."""
+def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s: float, cfg: GroupingConfig,
+                live: Mapping[int, CrowdTrack]
+                ) -> tuple[list[ReportedCrowd], dict[int, LastSeen], dict[int, int], list[ReportedCrowd]]:
+    """Steps 6 and 7: the crowds seen this frame under the ids the team knows them by (placed by their
+    walk where partly seen), what is remembered of them, the ids carried over, and the crowds unseen
+    this frame still reported."""
     alias = {t: c for t, c in state.alias.items() if t in live}
-    out[:] = [replace(r, crowd_id=alias.get(r.track.track_id, r.crowd_id)) for r in out]
+    out = [replace(r, crowd_id=alias.get(r.track.track_id, r.crowd_id)) for r in seen_crowds]
     last = dict(state.last_seen)
     seen = np.array([[r.estimate.east_m, r.estimate.north_m] for r in out], float).reshape(-1, 2)
     taken = {r.crowd_id for r in out}
@@ -342,7 +342,7 @@ def _remembered(state: GroupingState, out: list[ReportedCrowd], stamp_s: float, 
         moved = replace(c, east_m=float(at[0]), north_m=float(at[1]), radius95_m=max(r95, c.radius95_m),
                         footprint_en_m=c.footprint_en_m + (at - [c.east_m, c.north_m]))
         coasted.append(replace(ls.crowd, estimate=moved, unseen_s=dt, partly_seen=False))
-    return last, alias, coasted
+    return out, last, alias, coasted
 
 
 def _partly_seen(r: ReportedCrowd, ls: LastSeen | None, stamp_s: float, cfg: GroupingConfig) -> ReportedCrowd:
@@ -395,7 +395,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     for members in groups.values():
         lead = min(members, key=lambda k: (-trk[k].hits, trk[k].track_id))
         out.append(ReportedCrowd(_merge([estimates[k] for k in members]), trk[lead], trk[lead].track_id))
-    last_seen, alias, coasted = _remembered(state, out, stamp_s, cfg, live)
+    out, last_seen, alias, coasted = _remembered(state, out, stamp_s, cfg, live)
     out += coasted
     out.sort(key=lambda c: (-c.track.hits, c.crowd_id))
     apart = frozenset(p for p in apart if p[0] in live and p[1] in live)   # forgotten with either track
