@@ -7,7 +7,10 @@ experiment alike.
 Modelling choices (each a scenario field or stated here):
 - crowd members keep their place in the crowd with a slow personal wander (0.3 m, Ornstein-Uhlenbeck)
   around offsets drawn with ``spread_m``; a crowd moves at its velocity (or a speed drawn from
-  ``speed_range_m_s`` with the heading kept);
+  ``speed_range_m_s`` with the heading kept), straight on, or winding where ``turn_sigma_deg_s`` > 0:
+  its velocity turned at a rate that wanders (Ornstein-Uhlenbeck, 1-sigma ``turn_sigma_deg_s``,
+  ``TURN_TAU_S`` correlation), drawn from its own generator (seed, 0x7E2) so the world's stream is the
+  same with and without it (distractors are still placed along the straight path);
 - a UGV drives towards its current mission waypoint at the leg's commanded speed, limited to
   ``station_speed_m_s`` while it is on station and to ``approach_speed_m_s`` otherwise (approaching,
   or catching up after falling behind). On station means within 3 m of the station ring *and* within
@@ -57,6 +60,7 @@ ROOF_HEIGHT_M = 1.0
 PERSON_CENTRE_HEIGHT_M = 1.0
 PERSON_RADIUS_M = 0.3
 MEMBER_WANDER_M = 0.3
+TURN_TAU_S = 4.0  # a winding crowd's turn rate keeps its sign for a few seconds, as a path bends
 WOBBLE_TAU_S = 3.0
 MISS_PROB = 0.02
 FALSE_BLOBS_PER_FRAME = 0.05
@@ -165,6 +169,9 @@ class SimWorld:
                 sp = rng.uniform(*c.speed_range_m_s)
                 v[k] = v[k] / max(np.linalg.norm(v[k]), 1e-9) * sp
         self.crowd_v = v
+        self.turn_sigma_rad_s = np.radians([c.turn_sigma_deg_s for c in sc.crowds])
+        self.turn_rng = np.random.default_rng([seed, 0x7E2])
+        self.turn_z = self.turn_rng.normal(0.0, 1.0, len(sc.crowds))   # turn rate / its sigma: OU, unit variance
         self.base_off = [rng.normal(0, c.spread_m / np.sqrt(2), (c.members, 2)) for c in sc.crowds]
         self.wander = [np.zeros((c.members, 2)) for c in sc.crowds]
         # UGVs around the first crowd
@@ -225,6 +232,13 @@ class SimWorld:
         rng, sc = self.rng, self.sc
         self.t += dt
         self.crowd_c = self.crowd_c + self.crowd_v * dt
+        if self.turn_sigma_rad_s.any():
+            a = np.exp(-dt / TURN_TAU_S)
+            self.turn_z = a * self.turn_z + np.sqrt(1 - a * a) * self.turn_rng.normal(0.0, 1.0, len(self.turn_z))
+            turn = self.turn_z * self.turn_sigma_rad_s * dt     # radians, counter-clockwise seen from above
+            c, s_ = np.cos(turn), np.sin(turn)
+            ve, vn = self.crowd_v[:, 0].copy(), self.crowd_v[:, 1].copy()
+            self.crowd_v = np.column_stack([c * ve - s_ * vn, s_ * ve + c * vn])
         a = np.exp(-dt / 5.0)
         for k in range(len(self.wander)):
             self.wander[k] = a * self.wander[k] + np.sqrt(1 - a * a) * rng.normal(0, MEMBER_WANDER_M, self.wander[k].shape)

@@ -6,7 +6,8 @@ half-read. Format: ../shared/scenarios/README.md (the fixed benchmark set).
 Optional parts (``scenarios/README.md`` in the repository): the sections ``[ground]`` (procedural or
 real-imagery ground texture), ``[distractors]`` (static label-coloured markings, parked vehicles and
 roof patches) and ``[lens]`` (ground-texture prefilter and optical blur), and the ``[uav]`` fields
-``tilt_roll_deg``/``tilt_pitch_deg`` (a fixed gimbal tilt). Each has a default that reproduces the
+``tilt_roll_deg``/``tilt_pitch_deg`` (a fixed gimbal tilt), and the ``[[crowds]]`` field
+``turn_sigma_deg_s`` (a crowd that winds instead of walking straight). Each has a default that reproduces the
 fixed set's worlds exactly, so a file without them means what it meant before they existed. Only
 fields declared with a default may be left out; every other key is still required.
 """
@@ -27,6 +28,7 @@ DISTRACTOR_KINDS = ("marking", "vehicle", "roof")
 PREFILTERS = ("auto", "mipmap", "none")
 MAX_TILT_DEG = 10.0                  # off-nadir angle of the fixed gimbal tilt (the range tested)
 MAX_ATTITUDE_SIGMA_DEG = 3.0         # the gimbal's unreported residual tilt, 1-sigma per axis
+MAX_TURN_SIGMA_DEG_S = 30.0          # a crowd's turn rate, 1-sigma (people round a corner at 20-40 deg/s)
 IMAGERY_GSD_RANGE_M = (0.002, 0.5)   # metres per pixel of real aerial imagery
 TEXEL_RANGE_M = (0.005, 1.0)
 TILE_RANGE_M = (2.0, 100.0)
@@ -108,6 +110,7 @@ class CrowdSpec:
     velocity_east_m_s: float
     velocity_north_m_s: float
     speed_range_m_s: tuple[float, ...]
+    turn_sigma_deg_s: float = 0.0     # 1-sigma of the crowd's turn rate (Ornstein-Uhlenbeck): a winding walk
 
 
 @dataclass(frozen=True)
@@ -270,6 +273,8 @@ def _validate(sc: Scenario, src: str) -> None:
     for i, c in enumerate(sc.crowds):
         need(len(c.speed_range_m_s) in (0, 2), f"crowds[{i}].speed_range_m_s", "[] or [lo, hi]")
         need(c.members >= 1, f"crowds[{i}].members", ">= 1")
+        need(0.0 <= c.turn_sigma_deg_s <= MAX_TURN_SIGMA_DEG_S, f"crowds[{i}].turn_sigma_deg_s",
+             f"0-{MAX_TURN_SIGMA_DEG_S:g} deg/s; got {c.turn_sigma_deg_s!r}")
     for d in sc.gnss.dropouts:
         need(len(d) == 3 and 0 <= int(d[0]) < sc.ugvs.count, "gnss.dropouts", "[[ugv_index, start_s, end_s]]")
     for e in sc.events.lose_ugv:

@@ -98,6 +98,8 @@ def test_gnss_tilt_noise_and_pose_variants_differ_from_their_base_only_there():
                                 ("real-alt120-lm6-gnss1", "real-alt120-lm6", ("gnss",)),
                                 ("real-alt120-lm6-tilt9", "real-alt120-lm6", ("uav",)),
                                 ("real-alt60-lm6-noise20", "real-alt60-lm6", ("camera",)),
+                                ("real-alt60-lm6-winding", "real-alt60-lm6", ("crowds",)),
+                                ("real-alt120-lm6-winding", "real-alt120-lm6", ("crowds",)),
                                 ("real-alt60-lm0-pose", "real-alt60-lm6", ("uav", "ugvs")),
                                 ("real-alt120-lm0-pose", "real-alt120-lm6", ("uav", "ugvs"))):
         v, b = load_own_scenario(name), load_own_scenario(base)
@@ -116,6 +118,9 @@ def test_gnss_tilt_noise_and_pose_variants_differ_from_their_base_only_there():
     assert load_own_scenario("real-alt60-lm6-gnss1").gnss.sigma_m == 1.0
     assert load_own_scenario("real-alt60-lm6").camera.noise_sigma == 2.0
     assert load_own_scenario("real-alt60-lm6-noise20").camera.noise_sigma == 20.0
+    for alt in (60, 120):
+        v, b = load_own_scenario(f"real-alt{alt}-lm6-winding"), load_own_scenario(f"real-alt{alt}-lm6")
+        assert v.crowds == (replace(b.crowds[0], turn_sigma_deg_s=6.0),) and b.crowds[0].turn_sigma_deg_s == 0.0
     t = load_own_scenario("real-alt120-lm6-tilt9").uav
     assert 8.0 <= off_nadir_deg(t.tilt_roll_deg, t.tilt_pitch_deg) <= 10.0
 
@@ -175,6 +180,9 @@ IMAGERY = [{"path": "x.jpg", "gsd_m": 0.02}]
     ({"uav.attitude_sigma_deg": -1.0}, "uav.attitude_sigma_deg"),         # negative
     ({"ugvs.roof_labels": "no"}, "ugvs.roof_labels"),                     # not a boolean
     ({"ugvs.roof_labels": 0}, "ugvs.roof_labels"),                        # nor is 0
+    ({"crowds[0].turn_sigma_deg_s": -1.0}, "crowds[0].turn_sigma_deg_s"),  # negative
+    ({"crowds[0].turn_sigma_deg_s": 45.0}, "crowds[0].turn_sigma_deg_s"),  # over 30 deg/s
+    ({"crowds[0].turn_sigma_deg_s": float("nan")}, "crowds[0].turn_sigma_deg_s"),
     ({"sky": {"clouds": 3}}, "sky"),                                     # unknown section
 ])
 def test_bad_optional_fields_name_their_key(base_raw, changes, key):
@@ -513,6 +521,33 @@ def test_the_gimbal_residual_tilt_is_rendered_but_not_reported():
     sim = Simulation(sc, 3, 0.0)
     st = sim.uav_state(sim.world.camera_pose(), 0.0)
     assert st.roll_deg == 0.0 and st.pitch_deg == 0.0          # the autopilot reports a level gimbal
+
+
+def test_a_winding_crowd_turns_at_its_pace_and_leaves_the_world_as_it_was():
+    sc = load_own_scenario("real-alt60-lm6-winding")
+    straight = replace(sc, crowds=(replace(sc.crowds[0], turn_sigma_deg_s=0.0),))
+    turned, speeds = [], []
+    for seed in range(1, 61):
+        w = SimWorld(sc, seed)
+        h0 = np.degrees(np.arctan2(*w.crowd_v[0]))
+        for _ in range(100):                 # 10 s at 10 Hz
+            w.step(0.1)
+        turned.append((np.degrees(np.arctan2(*w.crowd_v[0])) - h0 + 180.0) % 360.0 - 180.0)
+        speeds.append(np.hypot(*w.crowd_v[0]))
+    # the heading integrates an OU turn rate: sd sqrt(2 s^2 tau^2 (T/tau - 1 + exp(-T/tau))) = 43 deg here
+    assert 30.0 < np.std(turned) < 56.0 and abs(np.mean(turned)) < 15.0
+    assert np.allclose(speeds, np.hypot(sc.crowds[0].velocity_east_m_s, sc.crowds[0].velocity_north_m_s))
+    w, w0 = SimWorld(sc, 3), SimWorld(straight, 3)
+    for _ in range(20):
+        w.step(0.1)
+        w0.step(0.1)
+    assert not np.allclose(w.crowd_v, w0.crowd_v)                      # it winds
+    assert np.array_equal(w.base_off[0], w0.base_off[0]) and np.array_equal(w.wander[0], w0.wander[0])
+    assert np.array_equal(w.ugv_p, w0.ugv_p)                            # the world's own stream does not see it
+    w1 = SimWorld(straight, 3)
+    for _ in range(20):
+        w1.step(0.1)
+    assert np.array_equal(w1.crowd_c, w0.crowd_c)                       # 0: straight, as before the field existed
 
 
 def test_blur_sigma_blurs_the_frame():
