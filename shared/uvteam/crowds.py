@@ -33,17 +33,21 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    one); a crowd is the area-weighted mean of its parts (the detector's moving pixels), its footprint
    the box round theirs, its 95 % radius the largest of theirs, reported under its longest-seen
    part's track (id, velocity);
-6. a crowd once reported whose track has been seen for ``coast_min_seen_s`` (a walk fitted over less
-   is no walk to hold it by; a crowd found again by a new track waits as long) that goes unseen (its
-   walkers on ground of their own shade, under a canopy, a vehicle's blob over them) is still
-   reported for ``coast_s`` where its walk takes it: the straight line fitted to its last
+6. a crowd once reported that has been seen for ``coast_min_seen_s`` (a walk fitted over less is no walk
+   to hold it by) and goes unseen (its walkers on ground of their own shade, under a canopy, a vehicle's
+   blob over them) is still reported for ``coast_s`` where its walk takes it, flagged with how long it
+   has been unseen (``ReportedCrowd.unseen_s``). Its walk is the straight line fitted to its last
    ``scatter_s`` of estimates while it was seen whole (a crowd going out of sight goes part by part,
-   step 7), flagged with how long it has been unseen (``ReportedCrowd.unseen_s``), its radius grown
-   by the walk's velocity error (the fit's standard error, at least ``coast_sigma_v_m_s`` per axis:
-   crowds change pace) times the time unseen. It ends when a crowd is reported within ``near_m`` of where it should be (seen
-   again, or walked into another crowd's blob) or after ``coast_s``. A map that drops a crowd the
-   moment its walkers blend in shows a crowd that vanished; one that holds it too long shows a crowd
-   that is not there: ``coast_s`` is the bargain (docs/results-worlds.md measures it);
+   step 7). Its radius starts as the last estimate's, widened by how far its walk had it from where it
+   was seen (a line fitted to a crowd that bends cuts the bend), and grows by the walk's velocity error
+   (the fit's standard error, at least ``coast_sigma_v_m_s`` per axis) times the time unseen and by the
+   crowd's own change of pace and heading (``coast_sigma_a_m_s2`` per axis) times half the time unseen
+   squared: a crowd does not walk on straight because it is no longer seen. It ends when a crowd is
+   reported within ``near_m`` of where it should be (seen again, or walked into another crowd's blob) or
+   after ``coast_s``; a new track found there keeps its id (a crowd found again by a new track is held
+   only once that track is ``coast_min_seen_s`` old). A map that drops a crowd the moment its walkers
+   blend in shows a crowd that vanished; one that holds it too long shows a crowd that is not there:
+   ``coast_s`` is the bargain (docs/results-worlds.md measures it);
 7. a crowd seen with fewer moving pixels than it usually has (its median over the last ``window_s``)
    is partly out of sight, and what is seen of it lies to one side: with ``seen_whole`` of them or more
    it is where it is seen, with ``seen_none`` or fewer where its walk takes it (step 6), and in
@@ -82,7 +86,8 @@ class GroupingConfig:
     scatter_min_points: int = 5   # ... once there are this many
     coast_s: float = 5.0          # a crowd gone unseen is reported where its walk takes it this long (0: never)
     coast_min_seen_s: float = 2.0  # ... if it was seen this long first
-    coast_sigma_v_m_s: float = 0.3  # ... its velocity known no better than this per axis (1 sigma)
+    coast_sigma_v_m_s: float = 0.3  # ... its velocity known no better than this per axis (1 sigma),
+    coast_sigma_a_m_s2: float = 0.15  # ... and its pace and heading changing by this per axis (1 sigma)
     seen_whole: float = 0.85      # a crowd seen with this share of its usual moving pixels is seen whole;
     seen_none: float = 0.5        # ... with this share or less, where its walk takes it (step 7)
 
@@ -92,8 +97,9 @@ class GroupingConfig:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         if not (0.0 <= self.straggler_ratio <= 1.0 and self.near_gap_m >= 0.0 and self.significance >= 0.0):
             raise ValueError("straggler_ratio must be in [0, 1], near_gap_m and significance >= 0")
-        if not (self.coast_s >= 0.0 and self.coast_min_seen_s >= 0.0 and self.coast_sigma_v_m_s >= 0.0):
-            raise ValueError("coast_s, coast_min_seen_s and coast_sigma_v_m_s must be >= 0")
+        if not (self.coast_s >= 0.0 and self.coast_min_seen_s >= 0.0 and self.coast_sigma_v_m_s >= 0.0
+                and self.coast_sigma_a_m_s2 >= 0.0):
+            raise ValueError("coast_s, coast_min_seen_s, coast_sigma_v_m_s and coast_sigma_a_m_s2 must be >= 0")
         if not 0.0 <= self.seen_none < self.seen_whole:
             raise ValueError(f"need 0 <= seen_none < seen_whole, got {self.seen_none}, {self.seen_whole}")
         if not (self.apart_m >= self.near_m and self.apart_frames >= 1):
@@ -276,7 +282,7 @@ class LastSeen:
     en_m: tuple[float, float]          # ... where its straight walk over the last scatter_s had it,
     v_en_m_s: tuple[float, float]      # ... that walk's velocity
     sigma_v_m_s: float                 # ... and its 1-sigma per axis (inf: too few points for a walk),
-    r95_m: float                       # ... and its 95 % radius
+    r95_m: float                       # ... and the 95 % radius it is held by from there
     areas: tuple[tuple[float, float], ...] = ()   # (stamp s, moving pixels) over the last window_s
 
     def walk_at(self, stamp_s: float, cfg: GroupingConfig) -> tuple[np.ndarray, float]:
@@ -284,7 +290,8 @@ class LastSeen:
         dt = stamp_s - self.walk_s
         sigma_v = max(self.sigma_v_m_s if np.isfinite(self.sigma_v_m_s) else 0.0, cfg.coast_sigma_v_m_s)
         at = np.add(self.en_m, np.multiply(self.v_en_m_s, dt))
-        return at, float(np.hypot(self.r95_m, R95_PER_SIGMA * sigma_v * dt))
+        drift_m = np.hypot(sigma_v * dt, 0.5 * cfg.coast_sigma_a_m_s2 * dt * dt)   # 1 sigma per axis
+        return at, float(np.hypot(self.r95_m, R95_PER_SIGMA * drift_m))
 
 
 def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s: float, cfg: GroupingConfig,
@@ -327,7 +334,9 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
         walk = straight_walk(tuple(p for p in tr.trail if p[0] >= stamp_s - cfg.scatter_s - 1e-6), stamp_s,
                              cfg.scatter_min_points)
         at, v, sigma_v = walk or ((c.east_m, c.north_m), (tr.v_east_m_s, tr.v_north_m_s), float("inf"))
-        last[r.crowd_id] = LastSeen(r, stamp_s, stamp_s, at, v, sigma_v, c.radius95_m, areas)
+        # where its walk has it and where it is seen disagree (a bend the line cuts): held no surer than that
+        r95 = float(np.hypot(c.radius95_m, np.hypot(at[0] - c.east_m, at[1] - c.north_m)))
+        last[r.crowd_id] = LastSeen(r, stamp_s, stamp_s, at, v, sigma_v, r95, areas)
     coasted = []
     for cid, ls in list(last.items()):
         dt = stamp_s - ls.seen_s

@@ -1,5 +1,7 @@
 """Parts of one crowd are reported as one, two crowds as two (uvteam.crowds)."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -240,14 +242,15 @@ def test_a_crowd_radius_holds_its_own_measured_scatter(jitter_m):
 # --- step 6: a crowd gone unseen -------------------------------------------------------------------------
 
 def walk_with_gap(gap=(4.0, 7.0), seconds=10.0, v=(1.4, 0.5), jitter_m=0.3, seed=0, cfg=GroupingConfig(),
-                  other=None):
-    """One crowd walking at ``v`` from the origin, unseen during ``gap`` (s); per frame its true centre
-    and what was reported. ``other(t)``: a second crowd's (east, north), always seen."""
+                  other=None, path=None):
+    """One crowd walking at ``v`` from the origin (or along ``path(t)``: (east, north)), unseen during
+    ``gap`` (s); per frame its true centre and what was reported. ``other(t)``: a second crowd's (east,
+    north), always seen."""
     rng = np.random.default_rng(seed)
     state, frames = GroupingState(), []
     for f in range(int(seconds * 10)):
         t = f / 10
-        truth = (v[0] * t, v[1] * t)
+        truth = (v[0] * t, v[1] * t) if path is None else path(t)
         seen = [] if gap[0] <= t < gap[1] else [(truth[0] + rng.normal(0, jitter_m), truth[1] + rng.normal(0, jitter_m))]
         if other is not None:
             seen.append(other(t))
@@ -271,6 +274,56 @@ def test_a_crowd_unseen_is_reported_where_its_walk_takes_it_flagged_and_keeps_it
     # seen again after 3 s: a new track, the same crowd, the same id, no longer flagged
     after = [o for t, _, o in frames if t >= 7.0]
     assert all(len(o) == 1 and o[0].crowd_id == cid and o[0].unseen_s == 0.0 for o in after[3:])
+
+
+def turning(t, turn_at_s=6.0, rate_deg_s=0.0, speed=1.5):
+    """East at ``speed`` until ``turn_at_s``, then due north (rate 0: at once) or turning left at ``rate_deg_s``."""
+    if t <= turn_at_s:
+        return speed * t, 0.0
+    dt = t - turn_at_s
+    if rate_deg_s == 0.0:
+        return speed * turn_at_s, speed * dt
+    w = math.radians(rate_deg_s)
+    r = speed / w
+    return speed * turn_at_s + r * math.sin(w * dt), r * (1 - math.cos(w * dt))
+
+
+def held_errors(frames, gap):
+    """(error m, 95 % radius m) of each frame held during ``gap``."""
+    out = []
+    for t, truth, o in frames:
+        if gap[0] <= t < gap[1]:
+            (r,) = o
+            assert r.unseen_s > 0
+            out.append((np.hypot(r.estimate.east_m - truth[0], r.estimate.north_m - truth[1]), r.estimate.radius95_m))
+    return np.array(out)
+
+
+def test_a_held_crowd_turning_out_of_sight_stays_in_its_radius():
+    # it bends left at 10 deg/s from 1 s before it goes unseen, for the whole 5 s hold
+    gap = (9.0, 14.0)
+    path = lambda t: turning(t, turn_at_s=8.0, rate_deg_s=10.0)  # noqa: E731
+    held = held_errors(walk_with_gap(gap=gap, seconds=14.0, path=path), gap)
+    assert (held[:, 0] < held[:, 1]).all() and held[:, 1].max() < 8.0
+    rigid = held_errors(walk_with_gap(gap=gap, seconds=14.0, path=path, cfg=GroupingConfig(coast_sigma_a_m_s2=0.0)), gap)
+    assert (rigid[:, 0] > rigid[:, 1]).any()       # a radius that grows with the velocity's error only: outrun
+
+
+def test_a_crowd_lost_after_a_bend_is_held_no_surer_than_its_walk_and_sighting_agree():
+    # east, a quarter circle over 5-7 s, north; unseen from 8 s: the 10 s line cuts the bend, its end
+    # 2.3 m from the crowd, and the hold starts with a radius that says so
+    def bend(t, speed=1.5):
+        r = speed * 2.0 / (math.pi / 2)
+        if t <= 5.0:
+            return speed * t, 0.0
+        if t <= 7.0:
+            a = (t - 5.0) / 2.0 * math.pi / 2
+            return speed * 5.0 + r * math.sin(a), r * (1 - math.cos(a))
+        return speed * 5.0 + r, r + speed * (t - 7.0)
+
+    gap = (8.0, 9.0)
+    held = held_errors(walk_with_gap(gap=gap, seconds=9.0, path=bend), gap)
+    assert held[0, 0] > 2.0 and (held[:2, 0] < held[:2, 1]).all()     # without the widening: 1.8 m
 
 
 def test_a_crowd_unseen_longer_than_coast_s_is_dropped():
