@@ -40,13 +40,14 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    ``scatter_s`` of estimates while it was seen whole (a crowd going out of sight goes part by part,
    step 7). Its radius starts as the last estimate's, widened by how far its walk had it from where it
    was seen (a line fitted to a crowd that bends cuts the bend), and grows by the walk's velocity error
-   (the fit's standard error, at least ``coast_sigma_v_m_s`` per axis) times the time unseen and by the
-   crowd's own change of pace and heading (``coast_sigma_a_m_s2`` per axis) times half the time unseen
-   squared: a crowd does not walk on straight because it is no longer seen. It ends when a crowd is
-   reported within ``near_m`` of where it should be (seen again, or walked into another crowd's blob) or
-   after ``coast_s``; a new track found there keeps its id (a crowd found again by a new track is held
-   only once that track is ``coast_min_seen_s`` old). A map that drops a crowd the moment its walkers
-   blend in shows a crowd that vanished; one that holds it too long shows a crowd that is not there:
+   (the fit's standard error, at least ``coast_sigma_v_m_s`` per axis, and no less than the walk's and
+   the track's latest velocity disagree, per axis) times the time unseen and by the crowd's own change
+   of pace and heading (``coast_sigma_a_m_s2`` per axis) times half the time unseen squared: a crowd
+   does not walk on straight because it is no longer seen. It ends when a crowd is reported within
+   ``near_m`` of where it should be (seen again, or walked into another crowd's blob) or after
+   ``coast_s``; a new track found there keeps its id (a crowd found again by a new track is held only
+   once that track is ``coast_min_seen_s`` old). A map that drops a crowd the moment its walkers blend
+   in shows a crowd that vanished; one that holds it too long shows a crowd that is not there:
    ``coast_s`` is the bargain (docs/results-worlds.md measures it);
 7. a crowd seen with fewer moving pixels than it usually has (its median over the last ``window_s``)
    is partly out of sight, and what is seen of it lies to one side: with ``seen_whole`` of them or more
@@ -334,8 +335,11 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
         walk = straight_walk(tuple(p for p in tr.trail if p[0] >= stamp_s - cfg.scatter_s - 1e-6), stamp_s,
                              cfg.scatter_min_points)
         at, v, sigma_v = walk or ((c.east_m, c.north_m), (tr.v_east_m_s, tr.v_north_m_s), float("inf"))
-        # where its walk has it and where it is seen disagree (a bend the line cuts): held no surer than that
+        # where its walk has it and where it is seen, the walk's velocity and the track's latest, disagree
+        # on a crowd that bends (the line cuts the bend): it is held no surer than they agree
         r95 = float(np.hypot(c.radius95_m, np.hypot(at[0] - c.east_m, at[1] - c.north_m)))
+        if walk is not None:
+            sigma_v = max(sigma_v, float(np.hypot(v[0] - tr.v_east_m_s, v[1] - tr.v_north_m_s)) / np.sqrt(2.0))
         last[r.crowd_id] = LastSeen(r, stamp_s, stamp_s, at, v, sigma_v, r95, areas)
     coasted = []
     for cid, ls in list(last.items()):
