@@ -5,11 +5,11 @@ half-read. Format: ../shared/scenarios/README.md (the fixed benchmark set).
 
 Optional parts (``scenarios/README.md`` in the repository): the sections ``[ground]`` (procedural or
 real-imagery ground texture), ``[distractors]`` (static label-coloured markings, parked vehicles and
-roof patches) and ``[lens]`` (ground-texture prefilter and optical blur), and the ``[uav]`` fields
+roof patches) and ``[lens]`` (ground-texture prefilter and optical blur), the ``[uav]`` fields
 ``tilt_roll_deg``/``tilt_pitch_deg`` (a fixed gimbal tilt), and the ``[[crowds]]`` field
-``turn_sigma_deg_s`` (a crowd that winds instead of walking straight). Each has a default that reproduces the
-fixed set's worlds exactly, so a file without them means what it meant before they existed. Only
-fields declared with a default may be left out; every other key is still required.
+``turn_sigma_deg_s`` (a crowd that winds instead of walking straight). Each has a default that
+reproduces the fixed set's worlds exactly, so a file without them means what it meant before they
+existed. Only fields declared with a default may be left out; every other key is still required.
 """
 
 from __future__ import annotations
