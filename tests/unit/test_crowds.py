@@ -276,13 +276,11 @@ def test_a_crowd_unseen_is_reported_where_its_walk_takes_it_flagged_and_keeps_it
     assert all(len(o) == 1 and o[0].crowd_id == cid and o[0].unseen_s == 0.0 for o in after[3:])
 
 
-def turning(t, turn_at_s=6.0, rate_deg_s=0.0, speed=1.5):
-    """East at ``speed`` until ``turn_at_s``, then due north (rate 0: at once) or turning left at ``rate_deg_s``."""
+def turning(t, turn_at_s, rate_deg_s, speed=1.5):
+    """East at ``speed`` until ``turn_at_s``, then turning left at ``rate_deg_s``."""
     if t <= turn_at_s:
         return speed * t, 0.0
     dt = t - turn_at_s
-    if rate_deg_s == 0.0:
-        return speed * turn_at_s, speed * dt
     w = math.radians(rate_deg_s)
     r = speed / w
     return speed * turn_at_s + r * math.sin(w * dt), r * (1 - math.cos(w * dt))
