@@ -10,7 +10,8 @@ detections on the ``sensor`` key). Only the transports differ from the demo: no 
 Scoring is :mod:`uvteam.scoring` on the ``truth`` and ``crowds`` messages, as in the demo. Each run's
 result is written as it finishes (``<out>/runs/``); ``--resume`` keeps those already there, so an
 interrupted experiment loses nothing; an output folder that cannot be written is an error (exit 2)
-before anything runs.
+before anything runs. The table (``results.md``) ends with, and ``environment.json`` holds, the Python
+and library versions its figures were measured with.
 """
 
 from __future__ import annotations
@@ -20,8 +21,10 @@ import json
 import math
 import multiprocessing
 import os
+import platform
 import sys
 import time
+from importlib import metadata
 from dataclasses import asdict, replace
 from pathlib import Path
 
@@ -208,6 +211,30 @@ def _writable(out: Path) -> str | None:
     return None
 
 
+# The libraries a table's figures depend on: the same code gives other figures with other versions
+# (opencv's LK and RANSAC, numpy's and scipy's numerics), and pyproject gives ranges, not pins.
+FIGURE_LIBRARIES = ("opencv-python-headless", "numpy", "scipy", "msgpack", "eclipse-zenoh", "pymavlink")
+
+
+def environment() -> dict:
+    """What produced an experiment's figures: Python, the libraries in FIGURE_LIBRARIES (None: not
+    installed) and the machine, written beside its table."""
+    def version(name: str) -> str | None:
+        try:
+            return metadata.version(name)
+        except metadata.PackageNotFoundError:
+            return None
+
+    return {"python": platform.python_version(), "machine": platform.machine(), "cpus": os.cpu_count(),
+            "libraries": {name: version(name) for name in FIGURE_LIBRARIES}}
+
+
+def environment_line(env: dict) -> str:
+    """The table's footnote: the versions its figures were measured with."""
+    libs = ", ".join(f"{k} {v}" for k, v in env["libraries"].items() if v is not None)
+    return f"Measured with Python {env['python']}, {libs} ({env['machine']}, {env['cpus']} CPUs)."
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="uvteam experiment", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -275,8 +302,10 @@ def main(argv: list[str] | None = None) -> int:
         v.sort(key=lambda r: r.seed)
     rows = [(sc, f"{args.detector}, {sc.landmarks.image_coordinates} landmarks", summarize(per.get(sc.name, [])))
             for sc in scenarios]
-    md = table_markdown(rows)
+    env = environment()
+    md = table_markdown(rows) + "\n\n" + environment_line(env)
     try:
+        (out / "environment.json").write_text(json.dumps(env, indent=1) + "\n")
         (out / "results.md").write_text(md + "\n")
     except OSError as exc:
         print(md)

@@ -4,8 +4,10 @@ The runs are real (the desert scenario of scenarios/, procedural ground, shorten
 
 import errno
 import json
+import platform
 import re
 
+import numpy as np
 import pytest
 
 from conftest import OWN_SCENARIOS
@@ -73,4 +75,10 @@ def test_a_disk_that_fills_mid_way_keeps_the_runs_written_and_resume_finishes(sh
     assert counted == [2, 3]                         # seed 1 was kept, not run again
     runs = sorted(p.name for p in (out / "runs").glob("*.json"))
     assert runs == [f"short__sensor__seed{s}.json" for s in (1, 2, 3)]
-    assert "| short |" in (out / "results.md").read_text()
+    table = (out / "results.md").read_text()
+    assert "| short |" in table
+    # the versions the figures were measured with, beside them: the same code moves with its libraries
+    env = json.loads((out / "environment.json").read_text())
+    assert env["libraries"]["numpy"] == np.__version__ and env["libraries"]["opencv-python-headless"]
+    assert env["python"] == platform.python_version()
+    assert f"numpy {np.__version__}" in table and f"Python {platform.python_version()}" in table
