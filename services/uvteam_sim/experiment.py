@@ -24,8 +24,8 @@ import os
 import platform
 import sys
 import time
-from importlib import metadata
 from dataclasses import asdict, replace
+from importlib import metadata
 from pathlib import Path
 
 from uvteam import keys

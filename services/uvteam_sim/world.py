@@ -237,7 +237,7 @@ class SimWorld:
             self.turn_z = a * self.turn_z + np.sqrt(1 - a * a) * self.turn_rng.normal(0.0, 1.0, len(self.turn_z))
             turn = self.turn_z * self.turn_sigma_rad_s * dt     # radians, counter-clockwise seen from above
             c, s_ = np.cos(turn), np.sin(turn)
-            ve, vn = self.crowd_v[:, 0].copy(), self.crowd_v[:, 1].copy()
+            ve, vn = self.crowd_v[:, 0], self.crowd_v[:, 1]
             self.crowd_v = np.column_stack([c * ve - s_ * vn, s_ * ve + c * vn])
         a = np.exp(-dt / 5.0)
         for k in range(len(self.wander)):

@@ -276,14 +276,17 @@ def test_a_crowd_unseen_is_reported_where_its_walk_takes_it_flagged_and_keeps_it
     assert all(len(o) == 1 and o[0].crowd_id == cid and o[0].unseen_s == 0.0 for o in after[3:])
 
 
-def turning(t, turn_at_s, rate_deg_s, speed=1.5):
-    """East at ``speed`` until ``turn_at_s``, then turning left at ``rate_deg_s``."""
+def turning(t, turn_at_s, rate_deg_s, turn_deg=math.inf, speed=1.5):
+    """East at ``speed`` until ``turn_at_s``, then turning left at ``rate_deg_s`` through ``turn_deg``,
+    then straight on."""
     if t <= turn_at_s:
         return speed * t, 0.0
-    dt = t - turn_at_s
     w = math.radians(rate_deg_s)
+    dt = t - turn_at_s
+    arc_s = min(dt, math.radians(turn_deg) / w)
     r = speed / w
-    return speed * turn_at_s + r * math.sin(w * dt), r * (1 - math.cos(w * dt))
+    e, n = speed * turn_at_s + r * math.sin(w * arc_s), r * (1 - math.cos(w * arc_s))
+    return e + speed * (dt - arc_s) * math.cos(w * arc_s), n + speed * (dt - arc_s) * math.sin(w * arc_s)
 
 
 def held_errors(frames, gap):
@@ -310,15 +313,7 @@ def test_a_held_crowd_turning_out_of_sight_stays_in_its_radius():
 def test_a_crowd_lost_after_a_bend_is_held_no_surer_than_its_walk_and_sighting_agree():
     # east, a quarter circle over 3-6 s, north; unseen from 8 s: the 10 s line cuts the bend, its end
     # 2.3 m from the crowd and its velocity the chord's (north-east) while the crowd walks north
-    def bend(t, speed=1.5):
-        r = speed * 3.0 / (math.pi / 2)
-        if t <= 3.0:
-            return speed * t, 0.0
-        if t <= 6.0:
-            a = (t - 3.0) / 3.0 * math.pi / 2
-            return speed * 3.0 + r * math.sin(a), r * (1 - math.cos(a))
-        return speed * 3.0 + r, r + speed * (t - 6.0)
-
+    bend = lambda t: turning(t, turn_at_s=3.0, rate_deg_s=30.0, turn_deg=90.0)  # noqa: E731
     gap = (8.0, 9.5)
     held = held_errors(walk_with_gap(gap=gap, seconds=9.5, path=bend), gap)
     # the radius starts wider by how far the walk has it from where it was seen, and grows no slower
