@@ -13,6 +13,7 @@ cross. Prints the components' areas and each crowd's members that no component h
 """
 
 import sys
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -25,6 +26,7 @@ from uvteam_sim.experiment import SimTeam
 
 def main(path: str, seed: int, prefix: str, times_s: list[float]) -> None:
     sc = load_scenario(path)
+    Path(prefix).parent.mkdir(parents=True, exist_ok=True)
     team = SimTeam(sc, seed, "pixels")
     world = team.sim.world
     first: list[float] = []
@@ -61,7 +63,7 @@ def main(path: str, seed: int, prefix: str, times_s: list[float]) -> None:
         print(f"t {frame['t']:.1f} s: components (full-res px) {sorted(int(a / (s * s)) for a in stats[1:, 4])}")
         for k in range(len(sc.crowds)):
             m = world.members(k)
-            px = project(world.camera, pose, np.column_stack([m, world.terrain_up_m(m)])) * s
+            px = (project(world.camera, pose, np.column_stack([m, world.terrain_up_m(m)])) + 0.5) * s - 0.5
             lost = 0
             for x, y in px:
                 cv2.circle(img, (int(round(x)), int(round(y))), 1, (0, 255, 255), -1)
