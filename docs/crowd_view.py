@@ -8,8 +8,8 @@ the last time asked for and, at each time (seconds from the first frame), writes
 ``<prefix>_<t>.png``: the frame at the detector's processing scale with its joined motion mask (step 5
 of :mod:`uvteam.vision.motion`) in red, each connected component boxed with its area in full-resolution
 pixels (green: big enough to be a crowd, blue: not), every crowd member's true position as a yellow
-dot and the crowd's true centre (the members' mean, what the scoring holds the report to) as a yellow
-cross. Prints the components' areas and each crowd's members that no component holds.
+dot and the crowd's true centre (the members' mean, what the scoring holds the report to; crowds that
+mingle are one, as the scoring counts them) as a yellow cross (``SimWorld.crowd_groups_px``). Prints the components' areas and each crowd's members that no component holds.
 """
 
 import sys
@@ -19,7 +19,6 @@ import cv2
 import numpy as np
 
 import uvteam.vision.motion as motion
-from uvteam.camera import project
 from uvteam.io.files import load_scenario
 from uvteam_sim.experiment import SimTeam
 
@@ -61,9 +60,8 @@ def main(path: str, seed: int, prefix: str, times_s: list[float]) -> None:
             cv2.putText(img, str(int(a / (s * s))), (int(x), int(y) - 2), cv2.FONT_HERSHEY_SIMPLEX, 0.35, (255, 255, 0))
         pose = frame["pose"]
         print(f"t {frame['t']:.1f} s: components (full-res px) {sorted(int(a / (s * s)) for a in stats[1:, 4])}")
-        for k in range(len(sc.crowds)):
-            m = world.members(k)
-            px = (project(world.camera, pose, np.column_stack([m, world.terrain_up_m(m)])) + 0.5) * s - 0.5
+        for k, full_px in enumerate(world.crowd_groups_px(pose)):
+            px = (full_px + 0.5) * s - 0.5
             lost = 0
             for x, y in px:
                 cv2.circle(img, (int(round(x)), int(round(y))), 1, (0, 255, 255), -1)
@@ -72,7 +70,7 @@ def main(path: str, seed: int, prefix: str, times_s: list[float]) -> None:
                 lost += not inside
             c = px.mean(0)
             cv2.drawMarker(img, (int(round(c[0])), int(round(c[1]))), (0, 255, 255), cv2.MARKER_CROSS, 9)
-            print(f"  crowd {k}: {lost} of {len(m)} members on no component")
+            print(f"  crowd {k}: {lost} of {len(px)} members on no component")
         cv2.imwrite(name, img)
         print(f"  wrote {name}")
 
