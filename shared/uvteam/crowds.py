@@ -6,11 +6,14 @@ can have such a gap inside it too. Which it is shows in how the parts move: the 
 keep their offset, two crowds drift together or apart. So each frame (:func:`report_crowds`):
 
 1. every estimate is tracked on the ground (:class:`uvteam.tracking.CrowdTracker`), and its 95 % radius
-   widened when the track's estimates over the last ``scatter_s`` scatter about a straight line at
-   constant speed more than the noise the radius holds changes from frame to frame: a detector
-   may declare only the offset a crowd's blob keeps (:mod:`uvteam.detector_noise`: the pixel
-   pipeline does) and leave what the blob does between frames (parts lost and found, ground texture,
-   pixel noise) to be measured here, in these very frames;
+   fitted to how the track's estimates over the last ``scatter_s`` scatter about a straight line at
+   constant speed. A detector may declare only the offset a crowd's blob keeps (:mod:`uvteam.detector_noise`:
+   the pixel pipeline does, one value for the worst ground it was tuned on) and leave what the blob does
+   between frames (parts lost and found, ground texture, pixel noise) to be measured here, in these very
+   frames. Both come from the same walkers lost and found against the ground, so a blob that holds
+   steady keeps a small offset too: the declared steady part is narrowed to ``steady_per_scatter``
+   times the scatter (at least ``steady_min_m``, never more than declared), and the radius widened by
+   as much as the scatter exceeds the frame-to-frame noise it already holds;
 2. estimates closer than ``near_m`` are parts of one crowd, and so is a small part (``straggler_ratio``
    of the other's moving pixels) whose footprint is within ``near_gap_m`` of a bigger one's, as the
    walkers a UGV cuts off a crowd's edge; unless they move apart or together faster than
@@ -68,7 +71,7 @@ from .localizer import R95_PER_SIGMA, CrowdEstimate
 from .tracking import CrowdTrack, CrowdTracker
 
 __all__ = ["GroupingConfig", "GroupingState", "Held", "LastSeen", "ReportedCrowd", "crowd_groups", "report_crowds",
-           "straight_walk"]
+           "steady_sigma_m", "straight_walk"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -85,6 +88,8 @@ class GroupingConfig:
     apart_frames: int = 10        # ... and so are parts whose distance changed significantly this many frames in a row
     scatter_s: float = 10.0       # a crowd's radius counts the scatter of its estimates over this long
     scatter_min_points: int = 5   # ... once there are this many
+    steady_per_scatter: float = 1.6  # a crowd's blob keeps a steady offset of this times its scatter (0: as declared)
+    steady_min_m: float = 0.3     # ... but at least this, and at most what the detector declares (1 sigma per axis)
     coast_s: float = 5.0          # a crowd gone unseen is reported where its walk takes it this long (0: never)
     coast_min_seen_s: float = 2.0  # ... if it was seen this long first
     coast_sigma_v_m_s: float = 0.3  # ... its velocity known no better than this per axis (1 sigma),
@@ -103,6 +108,8 @@ class GroupingConfig:
             raise ValueError("coast_s, coast_min_seen_s, coast_sigma_v_m_s and coast_sigma_a_m_s2 must be >= 0")
         if not 0.0 <= self.seen_none < self.seen_whole:
             raise ValueError(f"need 0 <= seen_none < seen_whole, got {self.seen_none}, {self.seen_whole}")
+        if not (self.steady_per_scatter >= 0.0 and self.steady_min_m >= 0.0):
+            raise ValueError("steady_per_scatter and steady_min_m must be >= 0")
         if not (self.apart_m >= self.near_m and self.apart_frames >= 1):
             raise ValueError(f"apart_m must be >= near_m and apart_frames >= 1, got {self.apart_m}, {self.apart_frames}")
 
@@ -236,14 +243,31 @@ def straight_walk(trail: tuple[tuple[float, float, float], ...], at_s: float, mi
     return (float(at[0]), float(at[1])), (float(slope[0]), float(slope[1])), sigma_m / float(np.sqrt(stt))
 
 
+def steady_sigma_m(scatter_m: float, declared_sigma_m: float, cfg: GroupingConfig) -> float:
+    """The steady offset (1 sigma per axis) a crowd's blob keeps, from its measured ``scatter_m`` (step 1):
+    ``steady_per_scatter`` times it, within [``steady_min_m``, ``declared_sigma_m``]."""
+    if not cfg.steady_per_scatter > 0:
+        return declared_sigma_m
+    return min(max(cfg.steady_per_scatter * scatter_m, cfg.steady_min_m), declared_sigma_m)
+
+
 def _with_scatter(c: CrowdEstimate, track: CrowdTrack, cfg: GroupingConfig) -> CrowdEstimate:
-    """The estimate with its 95 % radius widened by its own track's measured scatter (step 1), by what
-    the scatter shows beyond the frame-to-frame noise the radius already holds (``frame_radius95_m``)."""
-    s = trail_scatter_m(tuple(p for p in track.trail if p[0] >= track.stamp_s - cfg.scatter_s), cfg.scatter_min_points)
-    extra2 = (R95_PER_SIGMA * s) ** 2 - c.frame_radius95_m ** 2
-    if not extra2 > 0:
+    """The estimate with its 95 % radius fitted to its own track's measured scatter (step 1): the declared
+    steady part (``steady_radius95_m``) narrowed to what the scatter says (:func:`steady_sigma_m`), then
+    widened by what the scatter shows beyond the frame-to-frame noise the radius holds (``frame_radius95_m``)."""
+    fit = _line_fit(tuple(p for p in track.trail if p[0] >= track.stamp_s - cfg.scatter_s), cfg.scatter_min_points)
+    if fit is None:
         return c
-    return replace(c, radius95_m=float(np.sqrt(c.radius95_m ** 2 + extra2)))
+    s = fit[3]
+    r2 = c.radius95_m ** 2
+    if c.steady_radius95_m > 0:
+        own = R95_PER_SIGMA * steady_sigma_m(s, c.steady_radius95_m / R95_PER_SIGMA, cfg)
+        r2 = max(r2 - c.steady_radius95_m ** 2 + own ** 2, c.frame_radius95_m ** 2)
+    extra2 = (R95_PER_SIGMA * s) ** 2 - c.frame_radius95_m ** 2
+    r2 += max(extra2, 0.0)
+    if r2 == c.radius95_m ** 2:
+        return c
+    return replace(c, radius95_m=float(np.sqrt(r2)))
 
 
 def _merge(parts: list[CrowdEstimate]) -> CrowdEstimate:

@@ -13,8 +13,9 @@ localizer propagates into every crowd's 95 % radius. Declared once per detector.
   paper-fig8-lm6 0.40 / 0.29, field-alt100-lm6 0.68 / 0.73, real-alt60-lm6 0.88 / 1.11, real-alt120-lm6
   0.88 / 0.84 m; docs/radius_decomposition.py). It does not average out over frames, and nothing one
   view shows (ground texture, the compensated difference's noise, the blob's area or box) was found to
-  tell a crowd's offset, so one value serves every ground: plain ground, whose offsets are smaller,
-  gets a radius wider than it needs (docs/results-pixels.md). The second part is left to be measured in
+  tell a crowd's offset, so the value declared is the worst ground's; what a crowd's estimates do over
+  seconds does tell it (a blob whose centre scatters little about its walk keeps a small offset too),
+  and :mod:`uvteam.crowds` narrows the declared part by it. The second part is left to be measured in
   flight (``crowd_blob_frame_px`` 0: :mod:`uvteam.crowds` widens each crowd's radius by the scatter of
   its own estimates).
 - ``SENSOR_MODEL_NOISE``: the simulator's sensor model, which stands in for a detector when no pixels

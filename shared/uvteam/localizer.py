@@ -200,6 +200,8 @@ class CrowdEstimate:
     area_px: float = 1.0                    # the blob's moving pixels, from the detector
     frame_radius95_m: float = 0.0           # the part of radius95_m that noise changing from frame to frame
                                             # makes (the crowd's estimates scatter by as much, :mod:`.crowds`)
+    steady_radius95_m: float = 0.0          # the part the offset the detector declares a crowd's blob keeps
+                                            # makes (:mod:`.crowds` narrows it for a blob that holds steady)
 
 
 @dataclass(frozen=True, slots=True)
@@ -570,7 +572,11 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
     idx, e, n, r, area, rf = targets.tolist(), en[:, 0].tolist(), en[:, 1].tolist(), r95.tolist(), \
         blobs.area_px[targets].tolist(), frame_r95.tolist()
     q = fit.quality
-    return tuple(CrowdEstimate(idx[k], e[k], n[k], fp[k], r[k], q, n_out, area[k], rf[k]) for k in keep)
+    steady = 0.0    # the declared steady part, in ground metres; none where the radius also covers a suspect fit
+    if sigma_target_frame_px is not None and px_per_m and q != FitQuality.SUSPECT:
+        steady = R95_PER_SIGMA * sqrt(max(sigma_target_px ** 2 - sigma_target_frame_px ** 2, 0.0)) / px_per_m
+    return tuple(CrowdEstimate(idx[k], e[k], n[k], fp[k], r[k], q, n_out, area[k], rf[k], min(steady, r[k]))
+                 for k in keep)
 
 
 def landmark_noise_scale(state: LocalizerState) -> float:

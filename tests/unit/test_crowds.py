@@ -1,11 +1,13 @@
 """Parts of one crowd are reported as one, two crowds as two (uvteam.crowds)."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from uvteam.crowds import GroupingConfig, GroupingState, crowd_groups, report_crowds, trail_scatter_m
+from uvteam.crowds import (GroupingConfig, GroupingState, crowd_groups, report_crowds, steady_sigma_m,
+                           trail_scatter_m)
 from uvteam.homography import FitQuality
 from uvteam.localizer import CrowdEstimate
 
@@ -237,6 +239,43 @@ def test_a_crowd_radius_holds_its_own_measured_scatter(jitter_m):
     else:
         assert 0.92 <= np.mean(inside) <= 0.98, np.mean(inside)
         assert np.median(r) == pytest.approx(np.hypot(declared, 2.4477 * jitter_m), rel=0.1)
+
+
+def test_steady_sigma_is_the_scatter_scaled_within_the_floor_and_the_declared():
+    cfg = GroupingConfig(steady_per_scatter=2.0, steady_min_m=0.3)
+    assert steady_sigma_m(0.05, 0.72, cfg) == pytest.approx(0.3)     # a blob holding steady: the floor
+    assert steady_sigma_m(0.25, 0.72, cfg) == pytest.approx(0.5)
+    assert steady_sigma_m(0.9, 0.72, cfg) == pytest.approx(0.72)     # never more than declared
+    assert steady_sigma_m(0.05, 0.72, GroupingConfig(steady_per_scatter=0.0)) == 0.72   # off: as declared
+    with pytest.raises(ValueError):
+        GroupingConfig(steady_min_m=-0.1)
+
+
+@pytest.mark.parametrize("jitter_m, offset_m", [(0.05, 0.25), (0.6, 0.9)])
+def test_a_crowd_that_holds_steady_gets_a_narrower_steady_offset(jitter_m, offset_m):
+    # the detector declares a steady offset of 0.72 m per axis (95 % radius 1.76 m) and nothing per frame.
+    # A blob whose centre scatters 5 cm about its walk is narrowed (to the floor, 0.35 m) and still holds
+    # its 0.25 m offset; one that scatters 0.6 m keeps the declared offset, widened by its scatter, and
+    # holds a 0.9 m offset too
+    rng = np.random.default_rng(11)
+    declared = 2.4477 * 0.72
+    state, inside, r = GroupingState(), [], []
+    for f in range(300):
+        t = f / 10
+        true = np.array([1.4 * t, 0.5 * t])
+        est = true + offset_m / np.sqrt(2) + rng.normal(0, jitter_m, 2)
+        c = replace(estimate(*est, area=20.0, r95=declared), steady_radius95_m=declared)   # all of it steady
+        state, out = report_crowds(state, (c,), T0 + t)
+        if out and f >= 100:
+            c = out[0].estimate
+            inside.append(np.hypot(c.east_m - true[0], c.north_m - true[1]) <= c.radius95_m)
+            r.append(c.radius95_m)
+    if jitter_m < 0.1:
+        floor = GroupingConfig().steady_min_m
+        assert np.median(r) == pytest.approx(np.hypot(2.4477 * floor, 2.4477 * jitter_m), rel=0.1)
+    else:
+        assert np.median(r) == pytest.approx(np.hypot(declared, 2.4477 * jitter_m), rel=0.1)
+    assert np.mean(inside) >= 0.95
 
 
 # --- step 6: a crowd gone unseen -------------------------------------------------------------------------

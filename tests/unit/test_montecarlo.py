@@ -13,7 +13,7 @@ from uvteam.blobs import Blobs, Landmarks
 from uvteam.config import UavConfig
 from uvteam.detector_noise import PIXEL_SIGMA_M, pixel_pipeline_noise
 from uvteam.geo import LocalFrame
-from uvteam.localizer import FrameObservation, LocalizerConfig, LocalizerState, UgvTrack, localize_step
+from uvteam.localizer import R95_PER_SIGMA, FrameObservation, LocalizerConfig, LocalizerState, UgvTrack, localize_step
 from uvteam.messages import CameraPoseReport
 from uvteam.pose import pose_prior
 from uvteam.vocab import FitQuality
@@ -44,6 +44,7 @@ def run_trials(alt_m, ring_m, n_landmarks, trials, seed):
         _, res = localize_step(LocalizerState(), obs, tracks, cfg)
         assert len(res.crowds) == 1
         c = res.crowds[0]
+        assert c.steady_radius95_m == 0.0   # all of the declared crowd noise is per frame: no steady part
         e = np.hypot(c.east_m - crowd[0], c.north_m - crowd[1])
         errs.append(e)
         inside.append(e <= c.radius95_m)
@@ -92,6 +93,8 @@ def run_pose_trials(alt_m, trials, seed, declared=UavConfig()):
         _, res = localize_step(LocalizerState(), obs, {}, cfg)
         assert res.quality == FitQuality.POSE and len(res.crowds) == 1
         c = res.crowds[0]
+        # the declared steady offset's part of the radius, in ground metres, for uvteam.crowds to narrow
+        assert c.steady_radius95_m == pytest.approx(R95_PER_SIGMA * PIXEL_SIGMA_M["crowd_blob"], rel=1e-6)
         e = np.hypot(c.east_m - crowd[0], c.north_m - crowd[1])
         errs.append(e)
         inside.append(e <= c.radius95_m)
