@@ -200,8 +200,8 @@ class CrowdEstimate:
     area_px: float = 1.0                    # the blob's moving pixels, from the detector
     frame_radius95_m: float = 0.0           # the part of radius95_m that noise changing from frame to frame
                                             # makes (the crowd's estimates scatter by as much, :mod:`.crowds`)
-    steady_radius95_m: float = 0.0          # the part the offset the detector declares a crowd's blob keeps
-                                            # makes (:mod:`.crowds` narrows it for a blob that holds steady)
+    steady_radius95_m: float = 0.0          # the part of radius95_m that the steady offset the detector
+                                            # declares for a crowd's blob makes (:mod:`.crowds` narrows it)
 
 
 @dataclass(frozen=True, slots=True)

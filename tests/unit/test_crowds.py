@@ -254,7 +254,7 @@ def test_steady_sigma_is_the_scatter_scaled_within_the_floor_and_the_declared():
 @pytest.mark.parametrize("jitter_m, offset_m", [(0.05, 0.25), (0.6, 0.9)])
 def test_a_crowd_that_holds_steady_gets_a_narrower_steady_offset(jitter_m, offset_m):
     # the detector declares a steady offset of 0.72 m per axis (95 % radius 1.76 m) and nothing per frame.
-    # A blob whose centre scatters 5 cm about its walk is narrowed (to the floor, 0.35 m) and still holds
+    # A blob whose centre scatters 5 cm about its walk is narrowed (to the floor, steady_min_m) and still holds
     # its 0.25 m offset; one that scatters 0.6 m keeps the declared offset, widened by its scatter, and
     # holds a 0.9 m offset too
     rng = np.random.default_rng(11)
