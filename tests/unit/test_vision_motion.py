@@ -1,6 +1,7 @@
 """Motion detection: exact synthetic cases, and golden baselines on real footage (../shared/data)."""
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -298,3 +299,60 @@ def test_split_scales_are_checked():
         MotionConfig(split_scales=())
     with pytest.raises(ValueError):
         MotionConfig(split_scales=(2.0, 0.5))
+
+
+def test_robust_sigma_is_the_noise_of_a_difference_despite_what_moved():
+    from uvteam.vision.motion import _robust_sigma
+    rng = np.random.default_rng(3)
+    for sigma in (1.5, 3.0, 8.0):
+        diff = np.abs(np.round(rng.normal(0, sigma, (360, 640)))).astype(np.uint8)
+        diff[100:140, 200:260] = 90                  # a walker's change: not noise
+        mask = np.full(diff.shape, 255, np.uint8)
+        mask[:, :40] = 0                             # outside what both frames see
+        diff[:, :40] = 255
+        assert _robust_sigma(diff, mask) == pytest.approx(sigma, rel=0.08)
+    assert _robust_sigma(diff, np.zeros_like(mask)) == 0.0
+
+
+def _flat_and_textured_frames(threshold_cfg, contrast=12.0, steps=10, seed=5):
+    """A camera drifting by fractions of a pixel over ground that is fine gravel on the left and flat
+    dark asphalt (grey 40) on the right, pixel noise 1 grey level; a 6 x 6 px walker of ``contrast``
+    grey levels over the asphalt walks 2 px per frame. Returns the blobs of each frame after the first two."""
+    rng = np.random.default_rng(seed)
+    ground = np.full((760, 1320), 40.0)
+    fine = cv2.GaussianBlur(rng.integers(0, 255, (760, 660)).astype(np.float64), (0, 0), 0.8)   # gravel
+    ground[:, :660] = cv2.normalize(fine, None, 0, 255, cv2.NORM_MINMAX)
+    ground = cv2.GaussianBlur(ground, (0, 0), 0.6)          # the lens: no edge sharper than a pixel
+    det = MotionDetector(replace(threshold_cfg, speckle="neighbours", process_scale=1.0, min_area_px=20.0))
+    out = []
+    for k in range(steps):
+        H = np.float32([[1, 0, -20 - 0.37 * k], [0, 1, -20 + 0.23 * k]])    # sub-pixel drift
+        img = cv2.warpAffine(ground, H, (1280, 720), flags=cv2.INTER_LINEAR)
+        x, y = 900 + 2 * k, 360
+        img[y - 3:y + 3, x - 3:x + 3] += contrast
+        img = np.clip(img + rng.normal(0, 1.0, img.shape), 0, 255).astype(np.uint8)
+        b = det.update(cv2.cvtColor(img, cv2.COLOR_GRAY2BGR), 0.1 * k)
+        if k >= 2:
+            out.append((b, (x, y)))
+    return out
+
+
+def test_a_threshold_from_noise_and_gradient_sees_a_faint_walker_and_no_shimmer():
+    # the paper's fixed 18 grey levels: the walker (12 levels over the asphalt) is never seen moving
+    fixed = _flat_and_textured_frames(MotionConfig())
+    assert all(len(b) == 0 for b, _ in fixed)
+    # a fixed threshold low enough for the walker takes the texture's shimmer for motion
+    low = _flat_and_textured_frames(MotionConfig(diff_threshold=8.0))
+    assert any((b.xy_px[:, 0] < 640).any() for b, _ in low if len(b))
+    # noise-and-gradient: the walker in every frame, and nothing else
+    cfg = MotionConfig(gradient_gain=0.3, diff_floor=8.0, noise_k=5.0)
+    for b, (x, y) in _flat_and_textured_frames(cfg):
+        assert len(b) == 1
+        assert abs(b.xy_px[0, 0] - x) < 6 and abs(b.xy_px[0, 1] - y) < 3      # within its size
+
+
+def test_the_threshold_settings_are_checked():
+    with pytest.raises(ValueError):
+        MotionConfig(gradient_gain=-0.1)
+    with pytest.raises(ValueError):
+        MotionConfig(noise_k=-1.0)

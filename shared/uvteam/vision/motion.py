@@ -16,7 +16,15 @@ Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale``
 2. the camera's motion between the frames fitted robustly (RANSAC homography, or a partial affine
    transform; a fit that explains fewer than half the tracked corners is a lost registration) and the
    previous frame warped onto the current one;
-3. absolute difference, threshold, restricted to pixels both frames see;
+3. absolute difference, threshold, restricted to pixels both frames see. The threshold is either fixed
+   (``diff_threshold``: the paper's) or, with ``gradient_gain`` > 0, set per pixel by what makes static
+   ground change between two registered frames: pixel noise, measured in this very difference (its
+   robust sigma, times ``noise_k``, at least ``diff_floor``), plus the ground's own gradient times
+   ``gradient_gain`` (a registration off by a fraction of a pixel changes a pixel by that fraction of
+   its gradient, the shimmer of fine texture under a hovering camera). The gradient is the smaller of
+   the two frames' (where something moved, one of them shows the flat ground it left or now covers),
+   and the threshold is never over ``diff_threshold``. On flat ground it drops to a few times the
+   noise: walkers of little contrast (dark clothes on dark asphalt) are seen moving;
 4. a motion history: the pixels that moved in the last ``history_s`` seconds, warped along with the
    camera so it stays registered, so that a crowd whose members move little per frame stays one blob
    (only the box around recent motion is warped: the rest is "long ago" and stays so);
@@ -79,7 +87,11 @@ class MotionConfig:
     lk_levels: int = 3
     model: str = "homography"          # "homography" | "affine"
     ransac_px: float = 2.0
-    diff_threshold: float = 18.0       # grey levels after compensation
+    diff_threshold: float = 18.0       # grey levels after compensation (gradient_gain 0)
+    gradient_gain: float = 0.0         # > 0: the threshold is a floor plus this times the ground's own
+                                       #   gradient (grey levels/px, the smaller of both frames'), step 3;
+    diff_floor: float = 8.0            #   the floor: this, or noise_k times the difference's measured
+    noise_k: float = 5.0               #   noise (robust sigma), whichever is more; never over diff_threshold
     history_s: float = 0.4             # at most 2.5 s (the history counts in 10 ms steps, in a byte)
     compensate_max_scale: float = 0.5  # camera motion is fitted on a copy at most this scale of the input
     merge_px: int = 9                  # closing kernel (processed pixels): joins a crowd's members
@@ -96,6 +108,9 @@ class MotionConfig:
             raise ValueError(f"history_s must be in (0, 2.5], got {self.history_s}")
         if not 0.05 <= self.compensate_max_scale <= 1.0:
             raise ValueError(f"compensate_max_scale must be in [0.05, 1], got {self.compensate_max_scale}")
+        if not (self.gradient_gain >= 0.0 and self.diff_floor >= 0.0 and self.noise_k >= 0.0):
+            raise ValueError(f"gradient_gain, diff_floor and noise_k must be >= 0, got "
+                             f"{self.gradient_gain}, {self.diff_floor}, {self.noise_k}")
         if self.speckle not in ("open", "neighbours"):
             raise ValueError(f"speckle must be 'open' or 'neighbours', got {self.speckle!r}")
         if self.model not in ("homography", "affine"):
@@ -104,6 +119,26 @@ class MotionConfig:
             raise ValueError(f"split_scales must be factors >= 1 of split_px, got {self.split_scales}")
         if not 0.05 <= self.process_scale <= 1.0:
             raise ValueError(f"process_scale must be in [0.05, 1], got {self.process_scale}")
+
+
+def _gradient(img: np.ndarray) -> np.ndarray:
+    """|d/dx| + |d/dy| in grey levels per pixel (Sobel, /8), uint8, saturating."""
+    gx = cv2.Sobel(img, cv2.CV_16S, 1, 0, ksize=3)
+    gy = cv2.Sobel(img, cv2.CV_16S, 0, 1, ksize=3)
+    return cv2.addWeighted(cv2.convertScaleAbs(gx, alpha=0.125), 1.0, cv2.convertScaleAbs(gy, alpha=0.125), 1.0, 0.0)
+
+
+def _robust_sigma(diff: np.ndarray, mask: np.ndarray) -> float:
+    """The 1-sigma of a difference image's noise from the median of its absolute values inside ``mask``
+    (robust to the few pixels that moved): 1.4826 x median, the median interpolated within its grey level."""
+    hist = cv2.calcHist([diff], [0], mask, [256], [0, 256]).ravel()
+    cum = np.cumsum(hist)
+    if not cum[-1] > 0:
+        return 0.0
+    half = 0.5 * cum[-1]
+    m = int(np.searchsorted(cum, half))
+    below = cum[m - 1] if m > 0 else 0.0
+    return float(1.4826 * max(m - 0.5 + (half - below) / hist[m], 0.0))
 
 
 def bounds_for_altitude(alt_agl_m: float, focal_px: float, *, person_m: float = 0.5, spacing_m: float = 1.5,
@@ -342,6 +377,7 @@ class MotionDetector:
         self._followed: dict = {}                 # carve id -> its point in the previous frame (processed px)
         self._pending: _Registered | None = None   # this frame, registered ahead of update()
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
+        self.noise_sigma: float | None = None   # the compensated difference's last measured noise (gradient_gain > 0)
         # a square closing: it joins members up to merge_px apart, and costs the same at any size
         self._k_close = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.merge_px, cfg.merge_px))
         # the splitting kernels, coarsest first, each finer than the merging one
@@ -516,7 +552,17 @@ class MotionDetector:
         cv2.fillConvexPoly(valid, np.round(corners.reshape(-1, 2) * 16).astype(np.int32), 255, cv2.LINE_8, 4)
         valid = cv2.erode(valid, np.ones((2 * cfg.border_px + 1, 2 * cfg.border_px + 1), np.uint8))
         diff = cv2.absdiff(curr, warped)
-        _, moving = cv2.threshold(diff, cfg.diff_threshold, 255, cv2.THRESH_BINARY)
+        if cfg.gradient_gain > 0:
+            # a registration off by a fraction of a pixel changes a pixel by that fraction of its
+            # gradient: textured ground needs more change to have moved than flat ground. Where
+            # something moved, one of the two frames shows the flat ground it left or covers
+            self.noise_sigma = _robust_sigma(diff, valid)
+            floor = max(cfg.diff_floor, cfg.noise_k * self.noise_sigma)
+            g = cv2.min(_gradient(curr), _gradient(warped))
+            limit = cv2.min(cv2.convertScaleAbs(g, alpha=cfg.gradient_gain, beta=floor), int(cfg.diff_threshold))
+            moving = cv2.compare(diff, limit, cv2.CMP_GT)
+        else:
+            _, moving = cv2.threshold(diff, cfg.diff_threshold, 255, cv2.THRESH_BINARY)
         cv2.bitwise_and(moving, valid, dst=moving)
         if cfg.speckle == "open":
             moving = cv2.morphologyEx(moving, cv2.MORPH_OPEN, self._k_open)
