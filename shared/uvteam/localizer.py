@@ -145,6 +145,7 @@ class LocalizerConfig:
     prior_growth_m_s: float = 2.0           # ... growing per second of its age (the camera moves and turns)
     suspect_sigmas: float = 4.0             # a 4-landmark fit this many sigmas from its prior is SUSPECT
     claim_radius_m: float = 2.5             # a UGV claims blobs this close to where it is (its size and trail)
+    moving_m_s: float = 0.5                 # a UGV reported faster than this moves: its label alone excuses no claim
     pose_bias_rate: float = 0.05            # how fast the pose's bias against landmark transforms is learnt
     learn_landmark_noise: bool = True       # widen the landmarks' declared noise by what the fits' residuals show
     residual_rate: float = 0.05             # ... learnt this fast
@@ -209,6 +210,7 @@ class UgvPosition:
     en_m: np.ndarray                        # (2,) east/north
     sigma_m: float                          # 1-sigma per axis
     source: str                             # "fix" | "extrapolated" | "plan"
+    speed_m_s: float | None = None          # the speed its receiver reports (None: not reported)
 
 
 @dataclass(frozen=True, slots=True)
@@ -324,7 +326,8 @@ def ugv_position_at(track: UgvTrack, t_s: float, cfg: LocalizerConfig) -> UgvPos
             i = None
         if i is not None:
             sig = max(track.fix_sigma_m[max(i - 1, 0):i + 1].tolist())   # the worse of the two fixes around t_s
-            return UgvPosition(_interp_path(fs, track.fix_en_m, t_s, i), max(sig, cfg.min_sigma_m), "fix")
+            return UgvPosition(_interp_path(fs, track.fix_en_m, t_s, i), max(sig, cfg.min_sigma_m), "fix",
+                               _reported_speed(track, min(i, len(fs) - 1)))
         if 0.0 < t_s - last <= reach:
             # Extrapolate with the receiver's own velocity. Differencing two noisy fixes would amplify
             # their noise (1 m noise, 0.2 s apart: 7 m/s), so without a velocity the fix is held and
@@ -338,7 +341,7 @@ def ugv_position_at(track: UgvTrack, t_s: float, cfg: LocalizerConfig) -> UgvPos
             else:
                 p = track.fix_en_m[-1].copy()
                 sig = hypot(sig, cfg.max_ugv_speed_m_s * dt / 2.0)
-            return UgvPosition(p, max(sig, cfg.min_sigma_m), "extrapolated")
+            return UgvPosition(p, max(sig, cfg.min_sigma_m), "extrapolated", _reported_speed(track, len(fs) - 1))
         age = t_s - last
     else:
         age = np.inf
@@ -347,6 +350,11 @@ def ugv_position_at(track: UgvTrack, t_s: float, cfg: LocalizerConfig) -> UgvPos
         sig = hypot(cfg.plan_sigma_m, float(track.fix_sigma_m[-1]) if len(fs) else 0.0)
         return UgvPosition(_interp_path(ps, track.plan_en_m, t_s), max(sig, cfg.min_sigma_m), "plan")
     return None
+
+
+def _reported_speed(track: UgvTrack, i: int) -> float | None:
+    """The speed the receiver reported with fix ``i`` (None: it reports no velocity)."""
+    return None if track.fix_v_en_m_s is None else float(hypot(*track.fix_v_en_m_s[i].tolist()))
 
 
 def ugv_positions(tracks: Mapping[str, UgvTrack], t_s: float, cfg: LocalizerConfig) -> dict[str, UgvPosition]:
@@ -486,9 +494,11 @@ def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, Ugv
 
     A UGV whose own blob was found there (within ``claim_radius_m``, or the gate) needs no claim: the
     detector carved it out of whatever it drives through, so a crowd's blob beside it stays a crowd; so
-    does one whose label was found there when a landmark fit stands behind the labels. Any other UGV
-    whose position is known (its label not seen, or seen elsewhere: a patch of its color on the ground)
-    claims the blobs whose box holds that point or whose centre is near it.
+    does one whose label was found there when a landmark fit stands behind the labels, unless its
+    receiver reports it moving (over ``moving_m_s``): a moving UGV's label rides on a blob of its own,
+    and a label there with none is a patch of its color on the ground beside it. Any other UGV whose
+    position is known (its label not seen, or seen elsewhere) claims the blobs whose box holds that
+    point or whose centre is near it.
 
     ``pose_sigma_m``: None when ``ground_to_px`` is a landmark fit (exact at its own landmarks' fixes);
     under the camera's pose, a callable of (N, 2) ground points -> (N,) its 1-sigma per axis. Then the
@@ -512,7 +522,9 @@ def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, Ugv
     box = blobs.xyxy_px
     for u, (px, py), reach in zip(names, where_px, reach_m.tolist()):
         r = cfg.gate_px if obs.px_per_m is None else max(cfg.gate_px, reach * obs.px_per_m)
-        if not (isfinite(px) and isfinite(py)) or _near(label_px.get(u), px, py, r) or _near(own_px.get(u), px, py, r):
+        moving = (positions[u].speed_m_s or 0.0) > cfg.moving_m_s
+        if not (isfinite(px) and isfinite(py)) or _near(own_px.get(u), px, py, r) or (
+                not moving and _near(label_px.get(u), px, py, r)):
             continue
         inside = (px >= box[:, 0]) & (px <= box[:, 2]) & (py >= box[:, 1]) & (py <= box[:, 3])
         claims |= inside | (np.sqrt((xy[:, 0] - px) ** 2 + (xy[:, 1] - py) ** 2) <= r)

@@ -257,3 +257,25 @@ def test_landmarks_noisier_than_declared_widen_the_radius_they_cause(learn):
         assert 0.90 <= np.mean(inside) <= 0.99, np.mean(inside)
     else:
         assert state.landmark_chi2 == 1.0 and np.mean(inside) < 0.6
+
+
+@pytest.mark.parametrize("speed_m_s, red_blob_is_crowd", [(2.0, False), (0.0, True)])
+def test_a_moving_ugv_whose_label_has_no_blob_of_its_own_claims_the_blob_beside_it(speed_m_s, red_blob_is_crowd):
+    # red's label is found where its fix says (a patch of its color on the ground beside it looks the
+    # same), but no blob of its own is there: its motion blob lies 35 px (2.2 m at this height) off,
+    # beyond the 25 px pairing gate. Reported moving, a UGV's label rides on a blob of its own, so the
+    # blob beside it is red's, not a crowd; reported still, the label vouches for it (a parked UGV
+    # beside a crowd claims nothing), as before
+    from dataclasses import replace
+    red = track_at(UGVS["red"], velocity=(speed_m_s, 0.0))
+    vel = np.tile([speed_m_s, 0.0], (len(red.fix_stamp_s), 1))
+    tracks = {u: track_at(en) for u, en in UGVS.items()}
+    tracks["red"] = UgvTrack(red.fix_stamp_s, red.fix_en_m, red.fix_sigma_m, fix_v_en_m_s=vel)
+    now = {**UGVS, "red": (UGVS["red"][0] + speed_m_s, 0.0)}     # where red is at t = 1 s
+    obs = observation(1.0, ugvs=now)
+    blobs = obs.blobs.xy_px.copy()
+    blobs[0] += (35.0, 0.0)
+    obs = replace(frame_obs(1.0, obs.landmarks.as_dict(), blobs), px_per_m=CAM.focal_px / POSE.up_m)
+    _, out = localize_step(LocalizerState(), obs, tracks, cfg())
+    crowds = sorted(c.blob_index for c in out.crowds)
+    assert crowds == ([0, len(blobs) - 1] if red_blob_is_crowd else [len(blobs) - 1])
