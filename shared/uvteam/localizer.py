@@ -159,6 +159,8 @@ class LocalizerConfig:
         for name in ("gate_px", "tracking_interval_s", "hold_max_s", "robust_threshold_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if not self.moving_m_s >= 0:
+            raise ValueError(f"moving_m_s must be >= 0, got {self.moving_m_s}")
         for name in ("sigma_landmark_px", "sigma_target_px"):
             v = getattr(self, name)
             if v is not None and not (np.isfinite(v) and v >= 0):

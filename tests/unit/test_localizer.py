@@ -142,7 +142,7 @@ def test_empty_frame():
     assert res.quality == FitQuality.FAILED and res.crowds == ()
 
 
-@pytest.mark.parametrize("kw", [{"gate_px": 0.0}, {"image_coordinates": "both"}, {"solver": "magic"}])
+@pytest.mark.parametrize("kw", [{"gate_px": 0.0}, {"image_coordinates": "both"}, {"solver": "magic"}, {"moving_m_s": -1.0}])
 def test_bad_config(kw):
     with pytest.raises(ValueError):
         cfg(**kw)
