@@ -146,6 +146,7 @@ class LocalizerConfig:
     suspect_sigmas: float = 4.0             # a 4-landmark fit this many sigmas from its prior is SUSPECT
     claim_radius_m: float = 2.5             # a UGV claims blobs this close to where it is (its size and trail)
     moving_m_s: float = 0.5                 # a UGV reported faster than this moves: its label alone excuses no claim
+    min_vehicle_blob_m2: float = 2.0        # under the pose, a UGV's own blob smaller than this (m2) excuses no claim
     pose_bias_rate: float = 0.05            # how fast the pose's bias against landmark transforms is learnt
     learn_landmark_noise: bool = True       # widen the landmarks' declared noise by what the fits' residuals show
     residual_rate: float = 0.05             # ... learnt this fast
@@ -159,8 +160,9 @@ class LocalizerConfig:
         for name in ("gate_px", "tracking_interval_s", "hold_max_s", "robust_threshold_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
-        if not self.moving_m_s >= 0:
-            raise ValueError(f"moving_m_s must be >= 0, got {self.moving_m_s}")
+        if not (self.moving_m_s >= 0 and self.min_vehicle_blob_m2 >= 0):
+            raise ValueError(f"moving_m_s and min_vehicle_blob_m2 must be >= 0, got {self.moving_m_s}, "
+                             f"{self.min_vehicle_blob_m2}")
         for name in ("sigma_landmark_px", "sigma_target_px"):
             v = getattr(self, name)
             if v is not None and not (np.isfinite(v) and v >= 0):
@@ -506,7 +508,8 @@ def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, Ugv
     under the camera's pose, a callable of (N, 2) ground points -> (N,) its 1-sigma per axis. Then the
     reach grows by the 95 % radius of the pose's and each fix's errors together, and a label vouches
     for nothing (fewer than four, no fit checked it: a patch of the UGV's color by an unlabelled UGV
-    looks the same)."""
+    looks the same), nor does a blob of its own smaller than ``min_vehicle_blob_m2``: the piece of
+    motion the detector carved round such a patch, while the vehicle's own blob lies beside it."""
     blobs = obs.blobs
     if not positions or not len(blobs):
         return np.zeros(len(blobs), bool)
@@ -519,7 +522,11 @@ def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, Ugv
         reach_m += R95_PER_SIGMA * np.hypot(pose_sigma_m(en), [positions[u].sigma_m for u in names])
         label_px = {}
     xy = blobs.xy_px
-    own_px = dict(zip(pairing.blob_of_ugv, xy[list(pairing.blob_of_ugv.values())].tolist()))
+    own = dict(pairing.blob_of_ugv)
+    if pose_sigma_m is not None and obs.px_per_m is not None:   # a blob carved round a label: the label's patch
+        least_px = cfg.min_vehicle_blob_m2 * obs.px_per_m ** 2
+        own = {u: j for u, j in own.items() if blobs.area_px[j] >= least_px}
+    own_px = dict(zip(own, xy[list(own.values())].tolist()))
     claims = np.zeros(len(blobs), bool)
     box = blobs.xyxy_px
     for u, (px, py), reach in zip(names, where_px, reach_m.tolist()):

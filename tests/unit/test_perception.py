@@ -166,6 +166,15 @@ def test_without_landmarks_a_ugv_is_claimed_where_the_pose_puts_it_give_or_take_
                                CAM.focal_px / 60.0)
     _, res = localize_step(LocalizerState(), patched, tracks, cfg)
     assert res.quality == FitQuality.POSE and [c.blob_index for c in res.crowds] == [len(RING)]
+    # ... nor does the piece of motion the detector carves round that patch and labels as the UGV's (0.6 m2,
+    # under min_vehicle_blob_m2): its own blob in name only, the vehicle's blob beside it is still claimed
+    n, px_per_m = len(seen_px), CAM.focal_px / 60.0
+    blobs = Blobs(np.vstack([seen_px, patch]), np.vstack([box, np.r_[patch - 5, patch + 5]]),
+                  np.r_[np.full(n, 100.0), 0.6 * px_per_m ** 2], ("",) * n + (far,))
+    carved = FrameObservation(1.0, Landmarks.from_dict({far: tuple(patch)}), blobs, 0.5, 1.0, 1.5, prior, px_per_m)
+    _, res = localize_step(LocalizerState(), carved, tracks, cfg)
+    assert res.quality == FitQuality.POSE and res.blob_of_ugv[far] == n
+    assert [c.blob_index for c in res.crowds] == [len(RING)]
 
 
 def test_a_label_colored_patch_on_the_ground_is_never_taken_for_the_ugv():
