@@ -377,7 +377,6 @@ class MotionDetector:
         self._followed: dict = {}                 # carve id -> its point in the previous frame (processed px)
         self._pending: _Registered | None = None   # this frame, registered ahead of update()
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
-        self.noise_sigma: float | None = None   # the compensated difference's last measured noise (gradient_gain > 0)
         # a square closing: it joins members up to merge_px apart, and costs the same at any size
         self._k_close = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.merge_px, cfg.merge_px))
         # the splitting kernels, coarsest first, each finer than the merging one
@@ -556,8 +555,7 @@ class MotionDetector:
             # a registration off by a fraction of a pixel changes a pixel by that fraction of its
             # gradient: textured ground needs more change to have moved than flat ground. Where
             # something moved, one of the two frames shows the flat ground it left or covers
-            self.noise_sigma = _robust_sigma(diff, valid)
-            floor = max(cfg.diff_floor, cfg.noise_k * self.noise_sigma)
+            floor = max(cfg.diff_floor, cfg.noise_k * _robust_sigma(diff, valid))
             g = cv2.min(_gradient(curr), _gradient(warped))
             limit = cv2.min(cv2.convertScaleAbs(g, alpha=cfg.gradient_gain, beta=floor), int(cfg.diff_threshold))
             moving = cv2.compare(diff, limit, cv2.CMP_GT)
