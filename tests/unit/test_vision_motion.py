@@ -353,6 +353,22 @@ def test_a_threshold_from_noise_and_gradient_sees_a_faint_walker_and_no_shimmer(
         assert abs(b.xy_px[0, 0] - x) < 8 and abs(b.xy_px[0, 1] - y) < 3      # its size and a step
 
 
+def test_the_ground_range_bounds_what_a_sub_pixel_shift_changes():
+    from uvteam.vision.motion import _local_range
+    rng = np.random.default_rng(3)
+    tex = cv2.GaussianBlur(rng.integers(0, 256, (120, 160)).astype(np.float32), (0, 0), 1.2)
+    img = cv2.normalize(tex, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)
+    r = _local_range(img).astype(float)
+    for dx, dy in ((0.5, 0.0), (0.0, -0.7), (0.6, 0.6), (-0.9, 0.3)):
+        shifted = cv2.warpAffine(img, np.float32([[1, 0, dx], [0, 1, dy]]), (160, 120), flags=cv2.INTER_LINEAR)
+        change = cv2.absdiff(img, shifted).astype(float)[2:-2, 2:-2]
+        assert (change <= r[2:-2, 2:-2] + 1).all()       # + 1: rounding of the warp
+        # and not slack by orders (a shift along x moves a pixel by half its range on a ramp)
+        assert change.max() > 0.2 * max(abs(dx), abs(dy)) * r[2:-2, 2:-2].max()
+    ramp = np.tile(np.arange(0, 160, dtype=np.uint8), (20, 1))   # 1 grey level per pixel along x
+    assert (_local_range(ramp)[5:-5, 5:-5] == 2).all()
+
+
 def test_the_threshold_settings_are_checked():
     with pytest.raises(ValueError):
         MotionConfig(gradient_gain=-0.1)
