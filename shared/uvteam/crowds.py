@@ -49,11 +49,7 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    does not walk on straight because it is no longer seen. It ends when a crowd is reported within
    ``near_m`` of where it should be (seen again, or walked into another crowd's blob) or after
    ``coast_s``; a new track found there keeps its id (a crowd found again by a new track is held only
-   once that track is ``coast_min_seen_s`` old). A crowd reported near it does not end it when it is
-   the crowd's own blob under another track: one younger than the crowd's own, which the crowd's own
-   was seen again after and never in one frame with (a blob now and then centred past the tracker's
-   gate by what joins it or hides part of it); that frame the crowd is held by its walk and the other
-   track is not reported. A map that drops a crowd the moment its walkers blend
+   once that track is ``coast_min_seen_s`` old). A map that drops a crowd the moment its walkers blend
    in shows a crowd that vanished; one that holds it too long shows a crowd that is not there:
    ``coast_s`` is the bargain (docs/results-worlds.md measures it);
 7. a crowd seen with fewer moving pixels than it usually has (its median over the last ``window_s``)
@@ -369,40 +365,21 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
         if walk is not None:
             sigma_v = max(sigma_v, float(np.hypot(v[0] - tr.v_east_m_s, v[1] - tr.v_north_m_s)) / np.sqrt(2.0))
         last[r.crowd_id] = LastSeen(r, stamp_s, stamp_s, at, v, sigma_v, r95, areas)
-    coasted, hidden = [], set()
+    coasted = []
     for cid, ls in list(last.items()):
         dt = stamp_s - ls.seen_s
         if dt <= 0.0:
             continue
         at, r95 = ls.walk_at(stamp_s, cfg)
-        near = np.flatnonzero(np.hypot(*(seen - at).T) < cfg.near_m) if len(seen) else np.empty(0, int)
-        own = live.get(ls.crowd.track.track_id)
-        took = [k for k in near if _took_its_blob(out[k].track, own)]
         if (dt > cfg.coast_s or not ls.seen_s - ls.crowd.track.first_s >= cfg.coast_min_seen_s
-                or len(near) > len(took)):
+                or (len(seen) and np.hypot(*(seen - at).T).min() < cfg.near_m)):
             del last[cid]
             continue
-        hidden.update(took)
         c = ls.crowd.estimate
         moved = replace(c, east_m=float(at[0]), north_m=float(at[1]), radius95_m=max(r95, c.radius95_m),
                         footprint_en_m=c.footprint_en_m + (at - [c.east_m, c.north_m]))
         coasted.append(replace(ls.crowd, estimate=moved, unseen_s=dt, partly_seen=False))
-    for k in hidden:
-        if out[k].crowd_id == out[k].track.track_id:
-            last.pop(out[k].crowd_id, None)
-    return [r for k, r in enumerate(out) if k not in hidden], last, alias, coasted
-
-
-def _took_its_blob(young: CrowdTrack, own: CrowdTrack | None) -> bool:
-    """Whether ``young`` is the blob of the crowd whose own track (``own``, still tracked) missed this
-    frame: a track younger than it that the crowd's own track was seen again after, never in one frame
-    with it (the crowd's blob, now and then centred past the tracker's gate by what joins it or hides
-    part of it, taken by another track). A blob whose centre jumped for good is not: its own track is
-    not seen again."""
-    if own is None or not own.stamp_s > young.first_s > own.first_s:
-        return False
-    mine = {round(p[0], 3) for p in own.trail}
-    return not any(round(p[0], 3) in mine for p in young.trail)
+    return out, last, alias, coasted
 
 
 def _partly_seen(r: ReportedCrowd, ls: LastSeen | None, stamp_s: float, cfg: GroupingConfig) -> ReportedCrowd:
