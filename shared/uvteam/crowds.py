@@ -49,9 +49,14 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    does not walk on straight because it is no longer seen. It ends when a crowd is reported within
    ``near_m`` of where it should be (seen again, or walked into another crowd's blob) or after
    ``coast_s``; a new track found there keeps its id (a crowd found again by a new track is held only
-   once that track is ``coast_min_seen_s`` old). A map that drops a crowd the moment its walkers blend
-   in shows a crowd that vanished; one that holds it too long shows a crowd that is not there:
-   ``coast_s`` is the bargain (docs/results-worlds.md measures it);
+   once that track is ``coast_min_seen_s`` old). A crowd reported near it does not end it when it is
+   the crowd's own blob under another track: one younger than the crowd's own, which the crowd's own
+   was seen again after and never in one frame with (a blob now and then centred past the tracker's
+   gate by what joins it or hides part of it), and which holds no crowd of step 4 (a blob that took in
+   two crowds known apart is the two of them: where they mingle they are one); that frame the crowd is
+   held by its walk and the other track is not reported. A map that drops a crowd the moment its
+   walkers blend in shows a crowd that vanished; one that holds it too long shows a crowd that is not
+   there: ``coast_s`` is the bargain (docs/results-worlds.md measures it);
 7. a crowd seen with fewer moving pixels than it usually has (its median over the last ``window_s``)
    is partly out of sight, and what is seen of it lies to one side: with ``seen_whole`` of them or more
    it is where it is seen, with ``seen_none`` or fewer where its walk takes it (step 6), and in
@@ -320,11 +325,11 @@ class LastSeen:
 
 
 def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s: float, cfg: GroupingConfig,
-                live: Mapping[int, CrowdTrack]
+                live: Mapping[int, CrowdTrack], holding: frozenset[int] = frozenset()
                 ) -> tuple[list[ReportedCrowd], dict[int, LastSeen], dict[int, int], list[ReportedCrowd]]:
     """Steps 6 and 7: the crowds seen this frame under the ids the team knows them by (placed by their
     walk where partly seen), what is remembered of them, the ids carried over, and the crowds unseen
-    this frame still reported."""
+    this frame still reported (``holding``: the tracks that hold crowds of step 4)."""
     alias = {t: c for t, c in state.alias.items() if t in live}
     out = [replace(r, crowd_id=alias.get(r.track.track_id, r.crowd_id)) for r in seen_crowds]
     last = dict(state.last_seen)
@@ -365,21 +370,40 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
         if walk is not None:
             sigma_v = max(sigma_v, float(np.hypot(v[0] - tr.v_east_m_s, v[1] - tr.v_north_m_s)) / np.sqrt(2.0))
         last[r.crowd_id] = LastSeen(r, stamp_s, stamp_s, at, v, sigma_v, r95, areas)
-    coasted = []
+    coasted, hidden = [], set()
     for cid, ls in list(last.items()):
         dt = stamp_s - ls.seen_s
         if dt <= 0.0:
             continue
         at, r95 = ls.walk_at(stamp_s, cfg)
+        near = np.flatnonzero(np.hypot(*(seen - at).T) < cfg.near_m) if len(seen) else np.empty(0, int)
+        own = live.get(ls.crowd.track.track_id)
+        took = [k for k in near if out[k].track.track_id not in holding and _took_its_blob(out[k].track, own)]
         if (dt > cfg.coast_s or not ls.seen_s - ls.crowd.track.first_s >= cfg.coast_min_seen_s
-                or (len(seen) and np.hypot(*(seen - at).T).min() < cfg.near_m)):
+                or len(near) > len(took)):
             del last[cid]
             continue
+        hidden.update(took)
         c = ls.crowd.estimate
         moved = replace(c, east_m=float(at[0]), north_m=float(at[1]), radius95_m=max(r95, c.radius95_m),
                         footprint_en_m=c.footprint_en_m + (at - [c.east_m, c.north_m]))
         coasted.append(replace(ls.crowd, estimate=moved, unseen_s=dt, partly_seen=False))
-    return out, last, alias, coasted
+    for k in hidden:
+        if out[k].crowd_id == out[k].track.track_id:
+            last.pop(out[k].crowd_id, None)
+    return [r for k, r in enumerate(out) if k not in hidden], last, alias, coasted
+
+
+def _took_its_blob(young: CrowdTrack, own: CrowdTrack | None) -> bool:
+    """Whether ``young`` is the blob of the crowd whose own track (``own``, still tracked) missed this
+    frame: a track younger than it that the crowd's own track was seen again after, never in one frame
+    with it (the crowd's blob, now and then centred past the tracker's gate by what joins it or hides
+    part of it, taken by another track). A blob whose centre jumped for good is not: its own track is
+    not seen again."""
+    if own is None or not own.stamp_s > young.first_s > own.first_s:
+        return False
+    mine = {round(p[0], 3) for p in own.trail}
+    return not any(round(p[0], 3) in mine for p in young.trail)
 
 
 def _partly_seen(r: ReportedCrowd, ls: LastSeen | None, stamp_s: float, cfg: GroupingConfig) -> ReportedCrowd:
@@ -432,7 +456,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     for members in groups.values():
         lead = min(members, key=lambda k: (-trk[k].hits, trk[k].track_id))
         out.append(ReportedCrowd(_merge([estimates[k] for k in members]), trk[lead], trk[lead].track_id))
-    out, last_seen, alias, coasted = _remembered(state, out, stamp_s, cfg, live)
+    out, last_seen, alias, coasted = _remembered(state, out, stamp_s, cfg, live, frozenset(holds))
     out += coasted
     out.sort(key=lambda c: (-c.track.hits, c.crowd_id))
     apart = frozenset(p for p in apart if p[0] in live and p[1] in live)   # forgotten with either track

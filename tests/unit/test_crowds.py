@@ -361,6 +361,47 @@ def test_a_crowd_lost_after_a_bend_is_held_no_surer_than_its_walk_and_sighting_a
     assert held[0, 0] > 2.0 and (held[:, 0] < held[:, 1]).all()
 
 
+def test_a_crowd_whose_blob_now_and_then_jumps_to_another_track_keeps_its_id_and_walk():
+    # walking east at 1.4 m/s; from 4 s every third frame its blob's centre lies 4.5 m north (what
+    # joins it; past the tracker's 4 m gate), so another track takes those frames and the crowd's own
+    # misses them. The crowd is held by its walk there, under its id, and nothing else is reported
+    rng = np.random.default_rng(2)
+    state, cid, held = GroupingState(), None, 0
+    for f in range(100):
+        t = f / 10
+        truth = (1.4 * t, 0.0)
+        off = f >= 40 and f % 3 == 0
+        e, n = truth[0] + rng.normal(0, 0.2), truth[1] + (4.5 if off else 0.0) + rng.normal(0, 0.2)
+        state, out = report_crowds(state, (estimate(e, n, 20.0),), T0 + t, GroupingConfig())
+        if f == 39:
+            (r,) = out
+            cid = r.crowd_id
+        if f >= 40:
+            assert len(out) == 1 and out[0].crowd_id == cid
+            err = np.hypot(out[0].estimate.east_m - truth[0], out[0].estimate.north_m - truth[1])
+            assert err < (1.0 if off else 1.5)
+            held += out[0].unseen_s > 0
+    assert held >= 15          # the off frames once the other track is confirmed (3 sightings)
+
+
+def test_two_crowds_whose_blobs_now_and_then_merge_are_reported_as_the_merged_blob():
+    # A and B, known apart (20 m), close in to 10 m by t = 10 s; then for 4 s the detector sees them as
+    # one blob (centre between them, 5 m from each: past the tracker's gate) in two frames of every four,
+    # as two in the others. The merged blob's track is younger than A's and B's and never in a frame
+    # with them, as a crowd's own blob jumping is; but it holds both (step 4), so neither is held by its
+    # walk in its stead: one crowd where they are one blob, as the scenarios score crowds that mingle
+    def parts(t):
+        f, n = round(t * 10), 1.2 * t
+        d = max(20.0 - t, 10.0)
+        if 10.0 <= t < 14.0 and f % 4 in (0, 1):
+            return [(d / 2.0, n, 20.0, d / 2.0 + 3.0)]
+        return [(0.0, n, 10.0, 3.0), (d, n, 10.0, 3.0)]
+    run(parts, 16.0, jitter_m=0.1)
+    merged = [f for f in range(104, 140) if f % 4 in (0, 1)]   # from the blob's third sighting (confirmed)
+    assert [run.counts[f] for f in merged] == [1] * len(merged)
+    assert set(run.counts[f] for f in range(100, 160) if f not in merged) == {2}
+
+
 def test_a_crowd_unseen_longer_than_coast_s_is_dropped():
     frames = walk_with_gap(gap=(4.0, 10.0))
     counts = {round(t, 1): len(o) for t, _, o in frames}
