@@ -19,13 +19,14 @@ from multiprocessing import Pool
 
 import numpy as np
 
+import uvteam.nodes.ugv as ugv
+from uvteam.io.files import load_scenario
+from uvteam.scoring import Scoreboard, summarize
+from uvteam_sim.experiment import SimTeam
 
-def run(job: tuple[str, float, int]) -> tuple[int, list, int, int, int, list]:
+
+def run(job: tuple[str, float, int]) -> Scoreboard:
     path, delta_m, seed = job
-    import uvteam.nodes.ugv as ugv  # noqa: PLC0415
-    from uvteam.io.files import load_scenario  # noqa: PLC0415
-    from uvteam_sim.experiment import SimTeam  # noqa: PLC0415
-
     told = ugv.UgvNode.on_crowds
 
     def on_crowds(self, key, msg):
@@ -35,24 +36,15 @@ def run(job: tuple[str, float, int]) -> tuple[int, list, int, int, int, list]:
             self.crowd = replace(self.crowd, en_m=self.crowd.en_m + np.array([delta_m, 0.0]))
 
     ugv.UgvNode.on_crowds = on_crowds
-    b = SimTeam(load_scenario(path), seed, "pixels").run()
-    return seed, b.errors_m, b.false_crowds, b.truth_frames, b.detected_frames, b.radius95_m
-
-
-def figures(e: np.ndarray, r: np.ndarray, false: int, truth: int, detected: int) -> dict:
-    return {"mean_m": float(e.mean()), "max_m": float(e.max()), "false_crowds": false,
-            "recall": detected / truth, "coverage95": float(np.mean(e <= r))}
+    return SimTeam(load_scenario(path), seed, "pixels").run()
 
 
 def main(path: str, delta_m: float, out: str) -> None:
-    from uvteam.io.files import load_scenario  # noqa: PLC0415
-
     seeds = load_scenario(path).run.seeds
     with Pool(2) as pool:
-        res = pool.map(run, [(path, delta_m, s) for s in seeds])
-    per = {s: figures(np.array(e), np.array(r), f, t, d) for s, e, f, t, d, r in res}
-    total = figures(np.concatenate([np.array(x[1]) for x in res]), np.concatenate([np.array(x[5]) for x in res]),
-                    sum(x[2] for x in res), sum(x[3] for x in res), sum(x[4] for x in res))
+        boards = pool.map(run, [(path, delta_m, s) for s in seeds])
+    per = {b.seed: summarize([b]) for b in boards}
+    total = summarize(boards)
     with open(out, "w") as f:
         json.dump({"scenario": path, "delta_m": delta_m, "all": total, "seeds": per}, f, indent=1)
     print(json.dumps(total))
