@@ -33,9 +33,12 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    track (within ``near_m``), it is the crowd coming out again: two crowds at once, with no wait for a
    drift to show (``min_span_s`` plus ``apart_frames`` frames, in which the two were reported as one);
 5. only parts seen ``confirm_hits`` times take part (a blob of one frame neither is a crowd nor pulls
-   one); a crowd is the area-weighted mean of its parts (the detector's moving pixels), its footprint
-   the box round theirs, its 95 % radius the largest of theirs, reported under its longest-seen
-   part's track (id, velocity);
+   one), and parts seen fewer times that lie in the footprint of a crowd seen whole in the last frame
+   (:func:`_young_parts`): a crowd's blob cut in two leaves one part to a track of the crowd's and the
+   other to a new one, and that part is the crowd's from its first frame (a young part joins a crowd;
+   alone it is none); a crowd is the area-weighted mean of its parts (the detector's moving pixels),
+   its footprint the box round theirs, its 95 % radius the largest of theirs, reported under its
+   longest-seen part's track (id, velocity);
 6. a crowd once reported that has been seen for ``coast_min_seen_s`` (a walk fitted over less is no walk
    to hold it by) and goes unseen (its walkers on ground of their own shade, under a canopy, a vehicle's
    blob over them) is still reported for ``coast_s`` where its walk takes it, flagged with how long it
@@ -446,14 +449,17 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
                 apart.add(pair)
                 since = holds[x] = since[:-1]
     groups: dict[int, list[int]] = {}
-    boxes_en = boxes_all[confirmed].reshape(-1, 4)
-    areas = np.array([estimates[k].area_px for k in confirmed], float)
-    labels, apart, streak = crowd_groups([trk[k] for k in confirmed], stamp_s, cfg, boxes_en, areas,
+    parts = confirmed + _young_parts(state, trk, estimates, confirmed, stamp_s, holds)
+    boxes_en = boxes_all[parts].reshape(-1, 4)
+    areas = np.array([estimates[k].area_px for k in parts], float)
+    labels, apart, streak = crowd_groups([trk[k] for k in parts], stamp_s, cfg, boxes_en, areas,
                                          frozenset(apart), state.streak)
-    for k, g in zip(confirmed, labels):
+    for k, g in zip(parts, labels):
         groups.setdefault(g, []).append(k)
     out = []
     for members in groups.values():
+        if not any(k in confirmed for k in members):    # young parts join a crowd; alone they are none
+            continue
         lead = min(members, key=lambda k: (-trk[k].hits, trk[k].track_id))
         out.append(ReportedCrowd(_merge([estimates[k] for k in members]), trk[lead], trk[lead].track_id))
     out, last_seen, alias, coasted = _remembered(state, out, stamp_s, cfg, live, frozenset(holds))
@@ -462,6 +468,33 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     apart = frozenset(p for p in apart if p[0] in live and p[1] in live)   # forgotten with either track
     holds = {x: v for x, v in holds.items() if v and x in live}
     return GroupingState(tracker, apart, streak, holds, last_seen, alias), out
+
+
+def _young_parts(state: GroupingState, trk: list[CrowdTrack], estimates: tuple[CrowdEstimate, ...],
+                 confirmed: list[int], stamp_s: float, holds: Mapping) -> list[int]:
+    """Step 5's exception: the estimates of tracks seen fewer than ``confirm_hits`` times whose centre
+    lies in the footprint of a crowd seen whole in the last frame that crowds were seen in (moved on by
+    its track's velocity), unless that crowd's track holds crowds of step 4. A crowd's blob cut in two
+    gives its old track one part and a new track the other: that part is the crowd's from its first
+    frame, not a blob to be confirmed while the crowd is reported as the other part alone."""
+    seen = [ls for ls in state.last_seen.values() if ls.seen_s < stamp_s and ls.crowd.unseen_s == 0.0
+            and not ls.crowd.partly_seen and ls.crowd.track.track_id not in holds]
+    if not seen:
+        return []
+    last_s = max(ls.seen_s for ls in seen)
+    boxes = []
+    for ls in seen:
+        if ls.seen_s == last_s:
+            tr, dt = ls.crowd.track, stamp_s - ls.seen_s
+            fp = ls.crowd.estimate.footprint_en_m + (tr.v_east_m_s * dt, tr.v_north_m_s * dt)
+            boxes.append((*fp.min(0), *fp.max(0)))
+    young = []
+    for k, c in enumerate(estimates):
+        if k in confirmed:
+            continue
+        if any(b[0] <= c.east_m <= b[2] and b[1] <= c.north_m <= b[3] for b in boxes):
+            young.append(k)
+    return young
 
 
 def _merged(state: GroupingState, live: Mapping[int, CrowdTrack], trk: list[CrowdTrack], boxes_en: np.ndarray,

@@ -464,3 +464,18 @@ def test_a_crowd_partly_seen_keeps_its_walk_as_seen():
         state, out = report_crowds(state, (est,), T0 + t, cfg)
     assert out[0].estimate.north_m == pytest.approx(0.0, abs=1e-6)
     assert out[0].track.trail[-1][2] == pytest.approx(3.0)       # the track holds what was seen
+
+
+def test_a_crowd_seen_as_two_parts_keeps_both_when_one_part_gets_a_young_track():
+    # walking east at 1.4 m/s, seen as an east and a west part (one crowd) for 3 s; then the west part's
+    # centre lies 4.1 m from where its track expects it (walkers joining and leaving it): a new, young
+    # track takes it, and the crowd is both parts from that frame on, not the east part alone
+    def parts(t):
+        f, x = round(t * 10), 1.4 * t
+        west = (x - 2.0, -4.0) if f >= 30 else (x - 3.0, 0.0)
+        return [(x + 3.0, 0.0, 20.0, 5.0), (*west, 20.0, 5.0)]
+    out = run(parts, 3.1, jitter_m=0.0)
+    (r,) = out
+    x = 1.4 * 3.0
+    assert r.unseen_s == 0.0 and r.estimate.area_px == pytest.approx(40.0)
+    assert (r.estimate.east_m, r.estimate.north_m) == pytest.approx((x + 0.5, -2.0), abs=1e-6)
