@@ -9,9 +9,10 @@ localizer propagates into every crowd's 95 % radius. Declared once per detector.
   members' centroid by an offset each crowd keeps for seconds (unequal contrast and size of the walkers
   and their shadows weight the moving pixels: 0.2-1.1 m, in any direction, one crowd to the next;
   mean over 1 s) plus 0.2-1.0 m that changes from frame to frame. The pipeline declares the first,
-  0.72 m per axis: its RMS over the worlds it was tuned on, seeds 2-3 (paper-fig7-alt200 0.46 / 0.49,
-  paper-fig8-lm6 0.40 / 0.29, field-alt100-lm6 0.68 / 0.73, real-alt60-lm6 0.88 / 1.11, real-alt120-lm6
-  0.88 / 0.84 m; docs/radius_decomposition.py). It does not average out over frames, and nothing one
+  0.63 m per axis: its RMS over the worlds it was tuned on, seeds 2-3 (paper-fig7-alt200 0.44 / 0.47,
+  paper-fig8-lm6 0.41 / 0.26, field-alt100-lm6 0.73 / 0.69, real-alt60-lm6 0.85 / 0.77, real-alt120-lm6
+  0.65 / 0.73 m; docs/radius_decomposition.py, measured again 2026-12-03 at 8a59b0b: 0.72 m when first
+  measured, 2026-12-02, before the detector saw walkers of little contrast). It does not average out over frames, and nothing one
   view shows (ground texture, the compensated difference's noise, the blob's area or box) was found to
   tell a crowd's offset, so the value declared is the worst ground's; what a crowd's estimates do over
   seconds does tell it (a blob whose centre scatters little about its walk keeps a small offset too),
@@ -40,7 +41,7 @@ class DetectorNoise:
     crowd_blob_frame_px: float | None = None
 
 
-PIXEL_SIGMA_M = {"color": 0.03, "ugv_blob": 0.25, "crowd_blob": 0.72}
+PIXEL_SIGMA_M = {"color": 0.03, "ugv_blob": 0.25, "crowd_blob": 0.63}
 SENSOR_MODEL_NOISE = DetectorNoise(color_px=0.5, ugv_blob_px=1.0, crowd_blob_px=1.5)   # white: all per frame
 
 
