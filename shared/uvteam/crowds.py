@@ -449,7 +449,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
                 apart.add(pair)
                 since = holds[x] = since[:-1]
     groups: dict[int, list[int]] = {}
-    parts = confirmed + _young_parts(state, trk, estimates, confirmed, stamp_s, holds)
+    parts = confirmed + _young_parts(state, estimates, confirmed, stamp_s, holds, cfg)
     boxes_en = boxes_all[parts].reshape(-1, 4)
     areas = np.array([estimates[k].area_px for k in parts], float)
     labels, apart, streak = crowd_groups([trk[k] for k in parts], stamp_s, cfg, boxes_en, areas,
@@ -470,30 +470,37 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     return GroupingState(tracker, apart, streak, holds, last_seen, alias), out
 
 
-def _young_parts(state: GroupingState, trk: list[CrowdTrack], estimates: tuple[CrowdEstimate, ...],
-                 confirmed: list[int], stamp_s: float, holds: Mapping) -> list[int]:
+def _young_parts(state: GroupingState, estimates: tuple[CrowdEstimate, ...], confirmed: list[int],
+                 stamp_s: float, holds: Mapping, cfg: GroupingConfig) -> list[int]:
     """Step 5's exception: the estimates of tracks seen fewer than ``confirm_hits`` times whose centre
     lies in the footprint of a crowd seen whole in the last frame that crowds were seen in (moved on by
-    its track's velocity), unless that crowd's track holds crowds of step 4. A crowd's blob cut in two
+    its track's velocity), unless that crowd's track holds crowds of step 4, and only as much as the
+    crowd's confirmed parts there miss of its moving pixels then (they hold under ``seen_whole`` of
+    them; with the young parts, biggest first, no more than that share over). A crowd's blob cut in two
     gives its old track one part and a new track the other: that part is the crowd's from its first
-    frame, not a blob to be confirmed while the crowd is reported as the other part alone."""
+    frame, not a blob to be confirmed while the crowd is reported as the other part alone; a stray blob
+    beside a crowd seen whole still joins nothing until confirmed."""
     seen = [ls for ls in state.last_seen.values() if ls.seen_s < stamp_s and ls.crowd.unseen_s == 0.0
             and not ls.crowd.partly_seen and ls.crowd.track.track_id not in holds]
     if not seen:
         return []
     last_s = max(ls.seen_s for ls in seen)
-    boxes = []
+    young: list[int] = []
     for ls in seen:
-        if ls.seen_s == last_s:
-            tr, dt = ls.crowd.track, stamp_s - ls.seen_s
-            fp = ls.crowd.estimate.footprint_en_m + (tr.v_east_m_s * dt, tr.v_north_m_s * dt)
-            boxes.append((*fp.min(0), *fp.max(0)))
-    young = []
-    for k, c in enumerate(estimates):
-        if k in confirmed:
+        if ls.seen_s != last_s:
             continue
-        if any(b[0] <= c.east_m <= b[2] and b[1] <= c.north_m <= b[3] for b in boxes):
-            young.append(k)
+        tr, dt = ls.crowd.track, stamp_s - ls.seen_s
+        fp = ls.crowd.estimate.footprint_en_m + (tr.v_east_m_s * dt, tr.v_north_m_s * dt)
+        (e0, n0), (e1, n1) = fp.min(0), fp.max(0)
+        inside = [k for k, c in enumerate(estimates) if e0 <= c.east_m <= e1 and n0 <= c.north_m <= n1]
+        whole = ls.crowd.estimate.area_px
+        # only what the crowd's confirmed parts miss of it: a blob beside a crowd seen whole is no part
+        have = sum(estimates[k].area_px for k in inside if k in confirmed)
+        for k in sorted((k for k in inside if k not in confirmed and k not in young),
+                        key=lambda k: -estimates[k].area_px):
+            if have < cfg.seen_whole * whole and have + estimates[k].area_px <= whole / cfg.seen_whole:
+                young.append(k)
+                have += estimates[k].area_px
     return young
 
 

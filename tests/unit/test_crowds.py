@@ -479,3 +479,16 @@ def test_a_crowd_seen_as_two_parts_keeps_both_when_one_part_gets_a_young_track()
     x = 1.4 * 3.0
     assert r.unseen_s == 0.0 and r.estimate.area_px == pytest.approx(40.0)
     assert (r.estimate.east_m, r.estimate.north_m) == pytest.approx((x + 0.5, -2.0), abs=1e-6)
+
+
+def test_a_stray_blob_beside_a_crowd_seen_whole_joins_nothing():
+    # the same crowd seen whole (one blob, a 12 m box) for 3 s; then for one frame a blob of half its
+    # pixels 4 m north, inside its footprint, on a new track: the crowd's own blob holds all it had, so
+    # the stray blob is no part of it (nor a crowd) until seen three times
+    def parts(t):
+        f, x = round(t * 10), 1.4 * t
+        return [(x, 0.0, 40.0, 6.0)] + ([(x, 4.0, 20.0, 2.0)] if f == 30 else [])
+    out = run(parts, 3.1, jitter_m=0.0)
+    (r,) = out
+    assert r.estimate.area_px == pytest.approx(40.0)
+    assert (r.estimate.east_m, r.estimate.north_m) == pytest.approx((1.4 * 3.0, 0.0), abs=1e-6)
