@@ -25,13 +25,15 @@ from uvteam.scoring import Scoreboard, summarize
 from uvteam_sim.experiment import SimTeam
 
 
+TOLD = ugv.UgvNode.on_crowds   # the node's own handler, wrapped afresh for each run (a pool worker runs several)
+
+
 def run(job: tuple[str, float, int]) -> Scoreboard:
     path, delta_m, seed = job
-    told = ugv.UgvNode.on_crowds
 
     def on_crowds(self, key, msg):
         before = self.crowd
-        told(self, key, msg)
+        TOLD(self, key, msg)
         if self.crowd is not None and self.crowd is not before:
             self.crowd = replace(self.crowd, en_m=self.crowd.en_m + np.array([delta_m, 0.0]))
 

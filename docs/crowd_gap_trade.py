@@ -23,9 +23,11 @@ def run(job: tuple[float, int]):
     gap_m, seed = job
     import uvteam.nodes.uav as uav_node  # noqa: PLC0415
     from uvteam.io.files import load_scenario  # noqa: PLC0415
+    from uvteam.vision.uav import UavVisionConfig  # noqa: PLC0415
     from uvteam_sim.experiment import SimTeam  # noqa: PLC0415
 
-    uav_node.UavVisionConfig = functools.partial(uav_node.UavVisionConfig, crowd_gap_m=gap_m)
+    # from the class itself, not from what an earlier job in this worker put in its place
+    uav_node.UavVisionConfig = functools.partial(UavVisionConfig, crowd_gap_m=gap_m)
     return SimTeam(load_scenario(str(SCENARIO)), seed, "pixels").run()
 
 
