@@ -3,11 +3,7 @@ from pathlib import Path
 
 import pytest
 
-
-def free_port(kind=socket.SOCK_STREAM) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+from uvteam.io.ports import free_port   # the demo's: below the ephemeral range, so no socket takes it first
 
 
 @pytest.fixture

@@ -23,8 +23,9 @@ import time
 import numpy as np
 
 from uvteam.bus import BusConfig
+from uvteam.io.ports import free_port
 
-from .demo import free_port, uvteam_command, wait_port
+from .demo import uvteam_command, wait_port
 
 KEY = "uvteam/bench/uav1/frame"
 

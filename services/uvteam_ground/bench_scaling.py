@@ -19,11 +19,12 @@ import threading
 import time
 from pathlib import Path
 
+from uvteam.io.ports import free_port
 from uvteam.service import StopFlag
 
 from .bench_frames import cpu_s, machine_busy, stop
 from .bench_latency import ProcessWatch
-from .demo import DEFAULT_SCENARIO, Team, wait_port, free_port, run_demo, uvteam_command
+from .demo import DEFAULT_SCENARIO, Team, wait_port, run_demo, uvteam_command
 
 
 def run_teams(n: int, duration_s: float) -> dict:

@@ -41,6 +41,7 @@ from uvteam.config import vehicle_config_to_toml
 from uvteam.errors import ConfigError
 from uvteam.geo import LocalFrame
 from uvteam.io.files import load_scenario
+from uvteam.io.ports import free_port
 from uvteam.io.recording import McapRecorder, attach_zenoh
 from uvteam.io.zenoh_bus import ZenohBus, add_bus_args, parse_cfg
 from uvteam.messages import Crowds, Status, Truth
@@ -50,12 +51,6 @@ from uvteam.team import TeamLayout, team_configs
 
 DEFAULT_SCENARIO = Path(__file__).resolve().parent / "data" / "demo.toml"
 FRAMES = {"pixels": "pixels", "sensor": "sim-sensor"}
-
-
-def free_port(kind: int = socket.SOCK_STREAM) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def wait_port(port: int, timeout_s: float = 15.0) -> bool:

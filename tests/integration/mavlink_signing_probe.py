@@ -19,16 +19,11 @@ import time
 from uvteam.autopilot import MissionItem, mavlink2
 from uvteam.errors import LinkError
 from uvteam.io.mavlink import AutopilotLink
+from uvteam.io.ports import free_port
 from uvteam_sim.autopilot import SimAutopilot
 
 KEY = bytes(range(32))
 CASES = {"same key": KEY, "autopilot unsigned": None, "wrong key": bytes(32)}
-
-
-def free_port(kind):
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class Relay:

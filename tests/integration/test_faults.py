@@ -9,7 +9,6 @@ router is unreachable says it is retrying, and stops within 2 s of SIGTERM.
 
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -17,6 +16,7 @@ import time
 import pytest
 
 from uvteam import keys
+from uvteam.io.ports import free_port
 from uvteam.io.zenoh_bus import ZenohBus
 from uvteam.messages import Crowds, Fix, Plan
 from uvteam.service import StopFlag
@@ -131,9 +131,7 @@ def test_a_router_restart_loses_no_more_than_it_must(faulty_run):
 
 
 def test_a_service_waits_for_its_router_and_stops_when_told(tmp_path):
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]          # nothing listens there
+    port = free_port()          # nothing listens there
     cfg = tmp_path / "loc.toml"
     cfg.write_text(f'[vehicle]\nteam = "t"\nid = "loc1"\nrole = "localizer"\n\n[bus]\nmode = "client"\n'
                    f'connect = ["tcp/127.0.0.1:{port}"]\n')

@@ -10,7 +10,6 @@ Also: `uvteam router --zenoh-config FILE` listens where the file says (it bound 
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -21,6 +20,7 @@ import pytest
 import zenoh
 
 from uvteam import keys
+from uvteam.io.ports import free_port
 from uvteam.io.zenoh_bus import ZenohBus
 from uvteam.messages import Fix
 from uvteam.service import StopFlag
@@ -30,12 +30,6 @@ from uvteam_ground.demo import DEFAULT_SCENARIO, Team, run_demo, wait_port
 pytestmark = pytest.mark.integration
 REPO = Path(__file__).resolve().parents[2]
 TEAM = "sec"
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _uvteam(*args, cwd, log):
@@ -59,7 +53,7 @@ class Secure:
     rogue CA's ``ugv1`` in ``dir/rogue``, and the router running in ``dir``."""
 
     def __init__(self, d: Path) -> None:
-        self.dir, self.port = d, _free_port()
+        self.dir, self.port = d, free_port()
         self.endpoint = f"tls/127.0.0.1:{self.port}"
         common = ["--router-host", "127.0.0.1", "--router-host", "localhost", "--listen", self.endpoint]
         cwd = os.getcwd()
@@ -327,7 +321,7 @@ def test_small_team_flows_arrive(team):
 # --- the router honours its config file's endpoints -------------------------------------------------------
 
 def test_router_listens_where_its_config_says(tmp_path):
-    port = _free_port()
+    port = free_port()
     conf = tmp_path / "router.json5"
     conf.write_text(f'{{mode:"router", scouting:{{multicast:{{enabled:false}}}}, '
                     f'listen:{{endpoints:["tcp/127.0.0.1:{port}"]}}}}')

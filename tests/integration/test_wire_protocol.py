@@ -10,7 +10,6 @@
 """
 
 import json
-import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -18,6 +17,8 @@ from pathlib import Path
 import jsonschema
 import pytest
 from mcap.reader import make_reader
+
+from uvteam.io.ports import free_port
 
 pytestmark = pytest.mark.integration
 ROOT = Path(__file__).resolve().parents[2]
@@ -29,9 +30,7 @@ TOPICS = {"fix", "plan", "detections", "sensor", "crowds", "status", "truth"}
 def live_run(tmp_path_factory):
     d = tmp_path_factory.mktemp("wire")
     rec, summary, wire = d / "demo.mcap", d / "summary.json", d / "wire.json"
-    with socket.socket() as sk:           # the demo's router also listens here (-l): the third party's door
-        sk.bind(("127.0.0.1", 0))
-        endpoint = f"tcp/127.0.0.1:{sk.getsockname()[1]}"
+    endpoint = f"tcp/127.0.0.1:{free_port()}"   # the demo's router also listens here (-l): the third party's door
     demo = subprocess.Popen([sys.executable, "-m", "uvteam", "demo", "--frames", "sensor", "--duration", "8", "--quiet",
                              "--record", str(rec), "--json", str(summary), "--workdir", str(d / "work"),
                              "-l", endpoint, "--cfg", "transport/link/tx/lease:4000"],
