@@ -470,6 +470,14 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     return GroupingState(tracker, apart, streak, holds, last_seen, alias), out
 
 
+def _in_boxes(points_en: np.ndarray, boxes_en: np.ndarray, margin_m: float = 0.0) -> np.ndarray:
+    """(boxes, points): whether each point (east, north) lies in each box (e0, n0, e1, n1) widened by
+    ``margin_m`` on every side, its edges included."""
+    p = np.asarray(points_en, float).reshape(1, -1, 2)
+    b = np.asarray(boxes_en, float).reshape(-1, 1, 4)
+    return ((b[..., :2] - margin_m <= p) & (p <= b[..., 2:] + margin_m)).all(-1)
+
+
 def _young_parts(state: GroupingState, estimates: tuple[CrowdEstimate, ...], confirmed: list[int],
                  stamp_s: float, holds: Mapping, cfg: GroupingConfig) -> list[int]:
     """Step 5's exception: the estimates of tracks seen fewer than ``confirm_hits`` times whose centre
@@ -485,14 +493,14 @@ def _young_parts(state: GroupingState, estimates: tuple[CrowdEstimate, ...], con
     if not seen:
         return []
     last_s = max(ls.seen_s for ls in seen)
+    centres = np.array([[c.east_m, c.north_m] for c in estimates], float).reshape(-1, 2)
     young: list[int] = []
     for ls in seen:
         if ls.seen_s != last_s:
             continue
         tr, dt = ls.crowd.track, stamp_s - ls.seen_s
         fp = ls.crowd.estimate.footprint_en_m + (tr.v_east_m_s * dt, tr.v_north_m_s * dt)
-        (e0, n0), (e1, n1) = fp.min(0), fp.max(0)
-        inside = [k for k, c in enumerate(estimates) if e0 <= c.east_m <= e1 and n0 <= c.north_m <= n1]
+        inside = np.flatnonzero(_in_boxes(centres, np.hstack([fp.min(0), fp.max(0)]))[0]).tolist()
         whole = ls.crowd.estimate.area_px
         # only what the crowd's confirmed parts miss of it: a blob beside a crowd seen whole is no part
         have = sum(estimates[k].area_px for k in inside if k in confirmed)
@@ -521,8 +529,7 @@ def _merged(state: GroupingState, live: Mapping[int, CrowdTrack], trk: list[Crow
     def holding(ids: tuple[int, ...]) -> np.ndarray:
         """The estimates whose footprints hold the predicted centres of all these tracks."""
         p = np.array([prev[y].predicted(stamp_s) for y in ids])
-        return np.flatnonzero(((boxes_en[:, None, :2] - HOLD_MARGIN_M <= p[None])
-                               & (p[None] <= boxes_en[:, None, 2:] + HOLD_MARGIN_M)).all((1, 2)))
+        return np.flatnonzero(_in_boxes(p, boxes_en, HOLD_MARGIN_M).all(1))
 
     for x in [x for x in holds if live[x].misses >= 1]:   # another track took the blob on (its centre jumped)
         lost = {y for h in holds[x] for y in h.lost}
