@@ -96,7 +96,7 @@ class GroupingConfig:
     apart_frames: int = 10        # ... and so are parts whose distance changed significantly this many frames in a row
     scatter_s: float = 10.0       # a crowd's radius counts the scatter of its estimates over this long
     scatter_min_points: int = 5   # ... once there are this many
-    steady_per_scatter: float = 1.6  # a crowd's blob keeps a steady offset of this times its scatter (0: as declared)
+    steady_per_scatter: float = 2.0  # a crowd's blob keeps a steady offset of this times its scatter (0: as declared)
     steady_min_m: float = 0.3     # ... but at least this, and at most what the detector declares (1 sigma per axis)
     coast_s: float = 5.0          # a crowd gone unseen is reported where its walk takes it this long (0: never)
     coast_min_seen_s: float = 2.0  # ... if it was seen this long first

@@ -33,8 +33,13 @@ Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale``
    targets whose one-pixel crescents an opening would erase, by requiring two moving neighbours per
    pixel and opening the history instead (``"neighbours"``); a square closing of about one crowd spacing joins members
    into one blob; connected components with areas between the altitude-derived bounds (a person's footprint to
-   the largest crowd) are the blobs; their centres are the centroids of this frame's moving pixels
-   (not of the whole history, whose centroid trails a moving crowd);
+   the largest crowd) are the blobs. A blob's centre is where the pixels that moved in the history
+   put it now (:func:`_centre_now`): each coordinate fitted as a straight line in the pixels' age and
+   taken at age 0. Not the centroid of this frame's moving pixels alone: a walker of little contrast
+   passes the threshold with a few pixels in one frame and more in the next, so one frame's pixels
+   weight the crowd towards its walkers of most contrast (a crowd half over a tree's shadow was placed
+   on its sunlit half, 4-5 m off); and not the history's centroid, which trails a moving crowd by half
+   the history;
 6. two crowds side by side (``split_px``): a blob is closed again with finer kernels, the coarsest
    first (``split_px`` times ``split_scales``); the first that leaves two or more groups each big enough
    to be a crowd on its own (``min_area_px``) splits the blob between them, every pixel going to the
@@ -359,6 +364,29 @@ def _d2_to_segment(gx: np.ndarray, gy: np.ndarray, a, b) -> np.ndarray:
     return (dx - t * ex) ** 2 + (dy - t * ey) ** 2
 
 
+def _centre_now(moved: np.ndarray, age: np.ndarray) -> tuple[float, float]:
+    """Where the pixels of ``moved`` (uint8 0/1, a blob's in its box) put it now: each coordinate fitted by
+    least squares as a straight line in the pixel's ``age`` (the motion history's, same box) and taken at
+    age 0. Every pixel that moved within the history counts, so a walker seen in some frames and not
+    others weighs as much as one seen in all; the fit takes out the trail the history leaves behind a
+    moving blob (its centroid lags by half the history). All pixels of one age (a blob's first frame):
+    their centroid. Never outside the box round the pixels (a few pixels fit a line poorly)."""
+    m0 = cv2.moments(moved, binaryImage=True)
+    n = m0["m00"]
+    x, y = m0["m10"] / n, m0["m01"] / n
+    a = age.astype(np.float32) * moved
+    m1, m2 = cv2.moments(a), cv2.moments(a * a)
+    a_mean = m1["m00"] / n
+    a_var = m2["m00"] / n - a_mean * a_mean
+    if not a_var > 1e-6:
+        return x, y
+    # the slope of each coordinate against age, then the line at age 0
+    vx = (m1["m10"] / n - a_mean * x) / a_var
+    vy = (m1["m01"] / n - a_mean * y) / a_var
+    bx, by, bw, bh = cv2.boundingRect(moved)
+    return min(max(x - vx * a_mean, bx), bx + bw - 1), min(max(y - vy * a_mean, by), by + bh - 1)
+
+
 def _close(mask: np.ndarray, kernel: np.ndarray) -> np.ndarray:
     """A closing of a blob's crop that does not join it to the crop's edge (padded with nothing moving)."""
     pad = kernel.shape[0]
@@ -448,7 +476,7 @@ class MotionDetector:
         h, w = curr.shape
         warp = _warper(reg.H_curr_from_prev, w, h)
         moving = self._moving(prev, curr, reg.H_curr_from_prev, warp)
-        recent, moving = self._history(moving, warp, reg.H_curr_from_prev, dt_s)
+        recent = self._history(moving, warp, reg.H_curr_from_prev, dt_s)
         joined = cv2.morphologyEx(recent, cv2.MORPH_CLOSE, self._k_close)
         # the next frame takes no corners on what moves (a corner half a kernel from a blob is on it)
         self._busy = cv2.dilate(joined, self._k_close)
@@ -461,7 +489,7 @@ class MotionDetector:
                                          r2, 1.0 / s)]
         xy, boxes, areas, carved = [], [], [], []
         for x, y, bw, bh, comp in comps:
-            for row in self._measure(comp, recent[y:y + bh, x:x + bw], moving[y:y + bh, x:x + bw], x, y, carve,
+            for row in self._measure(comp, recent[y:y + bh, x:x + bw], self._age[y:y + bh, x:x + bw], x, y, carve,
                                      tails, r2):
                 xy.append(row[0])
                 boxes.append(row[1])
@@ -580,10 +608,10 @@ class MotionDetector:
         moving[:, -b:] = 0
         return moving
 
-    def _history(self, moving: np.ndarray, warp, M: np.ndarray, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    def _history(self, moving: np.ndarray, warp, M: np.ndarray, dt_s: float) -> np.ndarray:
         """Step 4: the motion history, kept registered with the camera: each pixel's time since it last
         moved, in AGE_UNIT_S steps (uint8, saturating at "long ago"), warped along with the camera.
-        Returns the pixels that moved within ``history_s`` and this frame's moving pixels.
+        Returns the pixels that moved within ``history_s``; their ages stay in ``self._age``.
 
         An age past ``history_s`` is kept as "long ago" (it only grows until the pixel moves again, and
         then it is 0), so the map is "long ago" but where something moved lately, and only the box
@@ -603,8 +631,7 @@ class MotionDetector:
         self._age_box = cv2.boundingRect(recent)
         if cfg.speckle == "neighbours":
             recent = cv2.morphologyEx(recent, cv2.MORPH_OPEN, self._k_open)
-            cv2.bitwise_and(moving, recent, dst=moving)
-        return recent, moving
+        return recent
 
     def _components(self, joined: np.ndarray, carve: np.ndarray) -> list[tuple[int, int, np.ndarray]]:
         """Step 5: the connected components of the joined mask that can hold a blob, each as (x, y, its
@@ -638,7 +665,7 @@ class MotionDetector:
             out.append((x, y, comp))
         return out
 
-    def _measure(self, comp: np.ndarray, recent: np.ndarray, moving: np.ndarray, x: int, y: int,
+    def _measure(self, comp: np.ndarray, recent: np.ndarray, age: np.ndarray, x: int, y: int,
                  carve: np.ndarray, tails: np.ndarray, r2: float) -> list[tuple[list, list, float, int]]:
         """The blobs of one (split) component at (x, y): (centre, box, area, carve point or -1) each, in
         full-resolution pixels. A component holding carve points is cut around them (see :meth:`update`)."""
@@ -646,8 +673,7 @@ class MotionDetector:
         inv = 1.0 / cfg.process_scale
         bh, bw = comp.shape
         m = comp & (recent > 0)       # the pixels that moved lately
-        now = comp & (moving > 0)
-        parts = [(m, now, cfg.min_area_px, -1)]
+        parts = [(m, cfg.min_area_px, -1)]
         centre_of: dict[int, tuple[float, float]] = {}
         inside = [ci for ci, (cx, cy) in enumerate(carve) if x <= cx < x + bw and y <= cy < y + bh] if r2 > 0 else []
         if inside:
@@ -661,25 +687,22 @@ class MotionDetector:
             parts = []
             shared = len(inside) > 1
             if self._holds_crowd(m & ~near, inv):
-                parts.append((m & ~near, now & ~near, cfg.min_area_px, -1))
+                parts.append((m & ~near, cfg.min_area_px, -1))
                 shared = True
             for k, ci in enumerate(inside):
                 own = near & (nearest == k)
-                parts.append((m & own, now & own, MIN_VEHICLE_AREA_PX, ci))
+                parts.append((m & own, MIN_VEHICLE_AREA_PX, ci))
                 if shared:   # cut out of a crowd or a neighbour: its pixels are mixed, its point is not
                     centre_of[len(parts) - 1] = (carve[ci, 0] - x, carve[ci, 1] - y)
         out = []
-        for pi, (pm, pnow, min_area, ci) in enumerate(parts):
+        for pi, (pm, min_area, ci) in enumerate(parts):
             area = float(np.count_nonzero(pm)) * inv * inv
             if not min_area <= area <= cfg.max_area_px:
                 continue
-            # The centre comes from this frame's moving pixels: the history's centroid would trail
-            # the crowd by half the history (0.6 m at 3 m/s, 0.4 s); this lags by half a frame at most.
             if pi in centre_of:
                 cx, cy = centre_of[pi]
-            else:   # the mean of the pixels' coordinates, as image moments (no index arrays)
-                mo = cv2.moments(np.ascontiguousarray(pnow if pnow.any() else pm).view(np.uint8), binaryImage=True)
-                cx, cy = mo["m10"] / mo["m00"], mo["m01"] / mo["m00"]
+            else:
+                cx, cy = _centre_now(np.ascontiguousarray(pm).view(np.uint8), age)
             bx, by, bw_, bh_ = cv2.boundingRect(np.ascontiguousarray(pm).view(np.uint8))
             out.append(([(cx + x + 0.5) * inv - 0.5, (cy + y + 0.5) * inv - 0.5],
                         [(bx + x) * inv, (by + y) * inv, (bx + bw_ + x) * inv, (by + bh_ + y) * inv], area, ci))
