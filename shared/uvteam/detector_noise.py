@@ -12,7 +12,9 @@ localizer propagates into every crowd's 95 % radius. Declared once per detector.
   0.63 m per axis: its RMS over the worlds it was tuned on, seeds 2-3 (paper-fig7-alt200 0.44 / 0.47,
   paper-fig8-lm6 0.41 / 0.26, field-alt100-lm6 0.73 / 0.69, real-alt60-lm6 0.85 / 0.77, real-alt120-lm6
   0.65 / 0.73 m; docs/radius_decomposition.py, measured again 2026-12-03 at 8a59b0b: 0.72 m when first
-  measured, 2026-12-02, before the detector saw walkers of little contrast). It does not average out
+  measured, 2026-12-02, before the detector saw walkers of little contrast; and once the blob's centre
+  came from its motion history, 2026-12-03 at 613a079: 0.62 m, 0.46 / 0.47, 0.40 / 0.25, 0.71 / 0.75,
+  0.76 / 0.80, 0.72 / 0.63 m, so the value stands). It does not average out
   over frames, and nothing one view shows (ground texture, the compensated difference's noise, the
   blob's area or box) was found to tell a crowd's offset, so the value declared is the worst ground's;
   what a crowd's estimates do over seconds does tell it (a blob whose centre scatters little about its
