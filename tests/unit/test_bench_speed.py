@@ -57,9 +57,9 @@ def reference_history(frames, cfg):
         age[moving > 0] = 0
         det._ref_age = age
         _, recent_ref = cv2.threshold(age, int(round(cfg.history_s / motion.AGE_UNIT_S)), 255, cv2.THRESH_BINARY_INV)
-        recent, mv = orig(moving, warp, M, dt_s)
+        recent = orig(moving, warp, M, dt_s)
         seen.append((recent_ref, recent))
-        return recent, mv
+        return recent
     det._history = full
     for k, img in frames:
         det.update(img, 0.1 * k)
