@@ -303,11 +303,11 @@ def test_a_blob_s_centre_is_its_history_s_line_in_age_taken_at_age_zero():
     moved[3:7, 0:40] = 1
     age = np.full((10, 60), 255, np.uint8)
     age[3:7, 0:40] = np.arange(39, -1, -1, dtype=np.uint8)
-    x, y = _centre_now(moved, age)
+    x, y = _centre_now(moved, age, cv2.boundingRect(moved))
     assert x == pytest.approx(39.0, abs=1e-6) and y == pytest.approx(4.5, abs=1e-6)
     # pixels all of one age (a blob's first frame): their centroid
     age[3:7, 0:40] = 0
-    assert _centre_now(moved, age) == pytest.approx((19.5, 4.5))
+    assert _centre_now(moved, age, cv2.boundingRect(moved)) == pytest.approx((19.5, 4.5))
 
 
 def _half_faint_crowd(seed, faint=22, strong=80, steps=10):

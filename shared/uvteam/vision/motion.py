@@ -364,13 +364,14 @@ def _d2_to_segment(gx: np.ndarray, gy: np.ndarray, a, b) -> np.ndarray:
     return (dx - t * ex) ** 2 + (dy - t * ey) ** 2
 
 
-def _centre_now(moved: np.ndarray, age: np.ndarray) -> tuple[float, float]:
+def _centre_now(moved: np.ndarray, age: np.ndarray, box: tuple[int, int, int, int]) -> tuple[float, float]:
     """Where the pixels of ``moved`` (uint8 0/1, a blob's in its box) put it now: each coordinate fitted by
     least squares as a straight line in the pixel's ``age`` (the motion history's, same box) and taken at
     age 0. Every pixel that moved within the history counts, so a walker seen in some frames and not
     others weighs as much as one seen in all; the fit takes out the trail the history leaves behind a
     moving blob (its centroid lags by half the history). All pixels of one age (a blob's first frame):
-    their centroid. Never outside the box round the pixels (a few pixels fit a line poorly)."""
+    their centroid. Never outside ``box``, the box round the pixels (x, y, w, h: a few pixels fit a line
+    poorly)."""
     m0 = cv2.moments(moved, binaryImage=True)
     n = m0["m00"]
     x, y = m0["m10"] / n, m0["m01"] / n
@@ -383,7 +384,7 @@ def _centre_now(moved: np.ndarray, age: np.ndarray) -> tuple[float, float]:
     # the slope of each coordinate against age, then the line at age 0
     vx = (m1["m10"] / n - a_mean * x) / a_var
     vy = (m1["m01"] / n - a_mean * y) / a_var
-    bx, by, bw, bh = cv2.boundingRect(moved)
+    bx, by, bw, bh = box
     return min(max(x - vx * a_mean, bx), bx + bw - 1), min(max(y - vy * a_mean, by), by + bh - 1)
 
 
@@ -699,11 +700,12 @@ class MotionDetector:
             area = float(np.count_nonzero(pm)) * inv * inv
             if not min_area <= area <= cfg.max_area_px:
                 continue
+            pm8 = np.ascontiguousarray(pm).view(np.uint8)
+            bx, by, bw_, bh_ = cv2.boundingRect(pm8)
             if pi in centre_of:
                 cx, cy = centre_of[pi]
             else:
-                cx, cy = _centre_now(np.ascontiguousarray(pm).view(np.uint8), age)
-            bx, by, bw_, bh_ = cv2.boundingRect(np.ascontiguousarray(pm).view(np.uint8))
+                cx, cy = _centre_now(pm8, age, (bx, by, bw_, bh_))
             out.append(([(cx + x + 0.5) * inv - 0.5, (cy + y + 0.5) * inv - 0.5],
                         [(bx + x) * inv, (by + y) * inv, (bx + bw_ + x) * inv, (by + bh_ + y) * inv], area, ci))
         return out
