@@ -20,7 +20,8 @@ localizer propagates into every crowd's 95 % radius. Declared once per detector.
   what a crowd's estimates do over seconds does tell it (a blob whose centre scatters little about its
   walk keeps a small offset too), and :mod:`uvteam.crowds` narrows the declared part by it. The second
   part is left to be measured in flight (``crowd_blob_frame_px`` 0: :mod:`uvteam.crowds` widens each
-  crowd's radius by the scatter of its own estimates).
+  crowd's radius by the scatter of its own estimates within each second; what they do over longer is
+  the first part changing, and widens the radius only beyond it).
 - ``SENSOR_MODEL_NOISE``: the simulator's sensor model, which stands in for a detector when no pixels
   are processed; it draws its noise from this table, in image pixels.
 """

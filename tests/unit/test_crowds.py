@@ -6,8 +6,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from uvteam.crowds import (GroupingConfig, GroupingState, crowd_groups, report_crowds, steady_sigma_m,
-                           trail_scatter_m)
+from uvteam.crowds import (GroupingConfig, GroupingState, crowd_groups, fast_scatter_m, report_crowds,
+                           steady_sigma_m, trail_scatter_m)
 from uvteam.homography import FitQuality
 from uvteam.localizer import CrowdEstimate
 
@@ -276,6 +276,55 @@ def test_a_crowd_that_holds_steady_gets_a_narrower_steady_offset(jitter_m, offse
     else:
         assert np.median(r) == pytest.approx(np.hypot(declared, 2.4477 * jitter_m), rel=0.1)
     assert np.mean(inside) >= 0.95
+
+
+def test_fast_scatter_is_the_scatter_within_each_second():
+    rng = np.random.default_rng(5)
+    t = np.arange(0, 10, 0.1)
+    walk_e, walk_n = 5.0 + 1.4 * t, -2.0 + 0.3 * t
+    white = tuple(zip(t, walk_e + rng.normal(0, 0.3, len(t)), walk_n + rng.normal(0, 0.3, len(t))))
+    assert fast_scatter_m(white, 1.0) == pytest.approx(0.3, rel=0.15)          # frame noise: all of it
+    assert fast_scatter_m(white, 1.0) == pytest.approx(trail_scatter_m(white, 5), rel=0.15)
+    # the blob's offset wandering round a 0.6 m circle every 8 s, over 5 cm of frame noise: the scatter
+    # about the 10 s walk is the wander's, within each second only the noise's
+    wander = tuple(zip(t, walk_e + 0.6 * np.cos(t * np.pi / 4) + rng.normal(0, 0.05, len(t)),
+                       walk_n + 0.6 * np.sin(t * np.pi / 4) + rng.normal(0, 0.05, len(t))))
+    assert trail_scatter_m(wander, 5) > 0.35
+    assert fast_scatter_m(wander, 1.0) == pytest.approx(0.05, rel=0.3)
+    # frames dropped (stamps uneven) change nothing; spans of fewer than 4 estimates say nothing
+    kept = tuple(p for i, p in enumerate(white) if i % 3 != 1)
+    assert fast_scatter_m(kept, 1.0) == pytest.approx(0.3, rel=0.2)
+    assert fast_scatter_m(white[:3], 1.0) is None
+    assert fast_scatter_m(tuple(p for i, p in enumerate(white) if i % 4 == 0), 1.0) is None
+
+
+@pytest.mark.parametrize("wander_m", [0.5, 2.0])
+def test_a_slow_wander_is_held_by_the_steady_part_and_widens_it_only_beyond(wander_m):
+    # the detector declares a steady offset of 0.72 m per axis (95 % radius 1.76 m) and 5 cm per frame; the
+    # blob's offset wanders round a circle of wander_m every 6 s. At 0.5 m the declared steady part holds
+    # it: the radius stays as declared (adding the wander's scatter on top would make it ~1.95 m); at 2 m
+    # it does not, and the radius grows to the wander's scatter
+    rng = np.random.default_rng(13)
+    declared, frame = 2.4477 * 0.72, 2.4477 * 0.05
+    state, inside, r, trail = GroupingState(), [], [], []
+    for f in range(300):
+        t = f / 10
+        true = np.array([1.4 * t, 0.5 * t])
+        est = true + wander_m * np.array([np.cos(t * np.pi / 3), np.sin(t * np.pi / 3)]) + rng.normal(0, 0.05, 2)
+        trail.append((t, *est))
+        c = replace(estimate(*est, area=20.0, r95=math.hypot(declared, frame)), steady_radius95_m=declared,
+                    frame_radius95_m=frame)
+        state, out = report_crowds(state, (c,), T0 + t)
+        if out and f >= 100:
+            c = out[0].estimate
+            inside.append(np.hypot(c.east_m - true[0], c.north_m - true[1]) <= c.radius95_m)
+            r.append(c.radius95_m)
+    assert np.mean(inside) >= 0.95
+    if wander_m < 1.0:
+        assert np.median(r) == pytest.approx(math.hypot(declared, frame), rel=0.03)
+    else:
+        s = trail_scatter_m(tuple(trail[-100:]), 5)
+        assert np.median(r) == pytest.approx(2.4477 * s, rel=0.1) and np.median(r) > wander_m
 
 
 # --- step 6: a crowd gone unseen -------------------------------------------------------------------------
