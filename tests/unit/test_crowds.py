@@ -302,7 +302,7 @@ def test_fast_scatter_is_the_scatter_within_each_second():
 def test_a_slow_wander_is_held_by_the_steady_part_and_widens_it_only_beyond(wander_m):
     # the detector declares a steady offset of 0.72 m per axis (95 % radius 1.76 m) and 5 cm per frame; the
     # blob's offset wanders round a circle of wander_m every 6 s. At 0.5 m the declared steady part holds
-    # it: the radius stays as declared (adding the wander's scatter on top would make it ~1.95 m); at 2 m
+    # it: the radius stays as declared (adding the wander's scatter on top made it 1.92 m); at 2 m
     # it does not, and the radius grows to the wander's scatter
     rng = np.random.default_rng(13)
     declared, frame = 2.4477 * 0.72, 2.4477 * 0.05
