@@ -278,8 +278,8 @@ def fast_scatter_m(trail: tuple[tuple[float, float, float], ...], span_s: float)
         cyy = syy - np.divide(sy * sy, nn, out=np.zeros(m), where=ok)
         cty = sty - np.divide(st * sy, nn, out=np.zeros(m), where=ok)
         ss += float(np.sum(cyy - np.divide(cty * cty, ctt, out=np.zeros(m), where=ctt > 1e-12)))
-    dof = 2.0 * float(np.sum(np.maximum(nn[ok] - 2.0, 0.0)))
-    return float(np.sqrt(max(ss, 0.0) / dof)) if dof > 0 else None
+    dof = 2.0 * float(np.sum(nn[ok] - 2.0))    # every span kept has 4 or more estimates
+    return float(np.sqrt(max(ss, 0.0) / dof))
 
 
 def straight_walk(trail: tuple[tuple[float, float, float], ...], at_s: float, min_points: int
