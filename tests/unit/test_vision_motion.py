@@ -276,6 +276,27 @@ def test_stragglers_stay_with_their_crowd():
     assert b.xy_px[0, 0] > 500.0 + 20 + 5   # the crowd alone would be centred at 520
 
 
+@pytest.mark.parametrize("strays_x, reach, vehicle, pulled", [(593.0, 0.0, False, False), (593.0, 3.0, False, True),
+                                                              (700.0, 3.0, False, False), (593.0, 3.0, True, False)])
+def test_a_crowd_s_strays_beyond_the_merging_kernel_pull_its_centre(strays_x, reach, vehicle, pulled):
+    # a 3x3 crowd and a walker 45 px beyond its edge, further than the 31 px merging kernel joins and
+    # no crowd: with stray_reach (3 kernels, 93 px from the crowd's box) the crowd's centre is pulled
+    # towards it; not when it is further (160 px), nor when a vehicle drives there
+    cfg = MotionConfig(merge_px=31, min_area_px=1000.0, speckle="neighbours", process_scale=1.0, stray_reach=reach)
+    det = MotionDetector(cfg)
+    groups = [((500.0, 360.0), 3, 3, 20, (4.0, 0.0)), ((strays_x, 360.0), 1, 1, 20, (4.0, 0.0))]
+    for k, img in _walkers_frames(groups):
+        b = det.update(img, 0.1 * k, np.array([[strays_x + 4 * k, 360.0]]) if vehicle else None, 10.0)
+    crowd = np.flatnonzero(b.carved < 0)
+    assert len(crowd) == 1
+    x = b.xy_px[crowd[0], 0]
+    alone = 500.0 + 4 * 5                 # the crowd's own centre, 5 frames at 4 px/frame
+    if pulled:
+        assert x > alone + 6, x
+    else:
+        assert abs(x - alone) < 4, x
+
+
 @pytest.mark.parametrize("scales, vehicle, blobs", [((1.0,), False, 1), ((2.0, 1.5, 1.0), False, 2),
                                                     ((2.0, 1.5, 1.0), True, 1)])
 def test_a_loose_crowd_beside_a_dense_one_is_split_off_by_a_coarser_splitting_kernel(scales, vehicle, blobs):
@@ -345,6 +366,13 @@ def test_walkers_seen_in_some_frames_weigh_in_a_crowd_s_centre():
                 assert len(b) == 1
                 errors.append(float(np.hypot(*(b.xy_px[0] - centre))))
     assert np.mean(errors) < 6.5
+
+
+def test_stray_settings_are_checked():
+    with pytest.raises(ValueError):
+        MotionConfig(stray_reach=-1.0)
+    with pytest.raises(ValueError):
+        MotionConfig(stray_min_share=0.0)
 
 
 def test_split_scales_are_checked():
