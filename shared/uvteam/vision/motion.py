@@ -525,13 +525,21 @@ class MotionDetector:
         crowds = [b for b, ci in enumerate(carved) if ci < 0]
         if not crowds:
             return xy
-        rest = recent.copy()
-        for x, y, bw, bh, comp in comps:
-            rest[y:y + bh, x:x + bw][comp] = 0
-        n, _, stats, centres = cv2.connectedComponentsWithStats(rest, connectivity=8)
-        least = cfg.min_area_px * cfg.stray_min_share * s * s    # processed px
         reach = cfg.stray_reach * cfg.merge_px
         box = np.array([boxes[b] for b in crowds], float) * s    # x0, y0, x1, y1, processed px
+        # only round the crowds (two reaches: a piece centred within reach lies whole inside unless it
+        # is longer than a reach), not the whole frame: the labelling is most of this step's cost
+        h, w = recent.shape
+        wx0, wy0 = max(int(box[:, 0].min() - 2 * reach), 0), max(int(box[:, 1].min() - 2 * reach), 0)
+        wx1, wy1 = min(int(box[:, 2].max() + 2 * reach) + 1, w), min(int(box[:, 3].max() + 2 * reach) + 1, h)
+        rest = recent[wy0:wy1, wx0:wx1].copy()
+        for x, y, bw, bh, comp in comps:
+            ox0, oy0, ox1, oy1 = max(x, wx0), max(y, wy0), min(x + bw, wx1), min(y + bh, wy1)
+            if ox0 < ox1 and oy0 < oy1:
+                rest[oy0 - wy0:oy1 - wy0, ox0 - wx0:ox1 - wx0][comp[oy0 - y:oy1 - y, ox0 - x:ox1 - x]] = 0
+        n, _, stats, centres = cv2.connectedComponentsWithStats(rest, connectivity=8)
+        centres = centres + (wx0, wy0)
+        least = cfg.min_area_px * cfg.stray_min_share * s * s    # processed px
         pull: dict[int, list[tuple[float, float, float]]] = {}
         for i in range(1, n):
             if stats[i, cv2.CC_STAT_AREA] < least:
