@@ -9,12 +9,12 @@ localizer propagates into every crowd's 95 % radius. Declared once per detector.
   members' centroid by an offset each crowd keeps for seconds (unequal contrast and size of the walkers
   and their shadows weight the moving pixels: 0.2-1.1 m, in any direction, one crowd to the next;
   mean over 1 s) plus 0.2-1.0 m that changes from frame to frame. The pipeline declares the first,
-  0.63 m per axis: its RMS over the worlds it was tuned on, seeds 2-3 (paper-fig7-alt200 0.44 / 0.47,
-  paper-fig8-lm6 0.41 / 0.26, field-alt100-lm6 0.73 / 0.69, real-alt60-lm6 0.85 / 0.77, real-alt120-lm6
-  0.65 / 0.73 m; docs/radius_decomposition.py, measured again 2026-12-03 at 8a59b0b: 0.72 m when first
-  measured, 2026-12-02, before the detector saw walkers of little contrast; and once the blob's centre
-  came from its motion history, 2026-12-03 at 613a079: 0.62 m, 0.46 / 0.47, 0.40 / 0.25, 0.71 / 0.75,
-  0.76 / 0.80, 0.72 / 0.63 m, so the value stands). It does not average out
+  0.52 m per axis: its RMS over the worlds it was tuned on, seeds 2-3 (paper-fig7-alt200 0.45 / 0.45,
+  paper-fig8-lm6 0.33 / 0.22, field-alt100-lm6 0.43 / 0.74, real-alt60-lm6 0.41 / 0.82, real-alt120-lm6
+  0.46 / 0.64 m; docs/radius_decomposition.py, 2026-12-03 at c752844, once a crowd's strays pull its
+  centre, :mod:`uvteam.vision.motion` step 7). Before: 0.72 m when first measured (2026-12-02), 0.63 m
+  once the detector saw walkers of little contrast (at 8a59b0b), 0.62 m once the blob's centre came
+  from its motion history (at 613a079; the value stood). It does not average out
   over frames, and nothing one view shows (ground texture, the compensated difference's noise, the
   blob's area or box) was found to tell a crowd's offset, so the value declared is the worst ground's;
   what a crowd's estimates do over seconds does tell it (a blob whose centre scatters little about its
@@ -44,7 +44,7 @@ class DetectorNoise:
     crowd_blob_frame_px: float | None = None
 
 
-PIXEL_SIGMA_M = {"color": 0.03, "ugv_blob": 0.25, "crowd_blob": 0.63}
+PIXEL_SIGMA_M = {"color": 0.03, "ugv_blob": 0.25, "crowd_blob": 0.52}
 SENSOR_MODEL_NOISE = DetectorNoise(color_px=0.5, ugv_blob_px=1.0, crowd_blob_px=1.5)   # white: all per frame
 
 
