@@ -11,7 +11,7 @@ localizer propagates into every crowd's 95 % radius. Declared once per detector.
   mean over 1 s) plus 0.2-1.0 m that changes from frame to frame. The pipeline declares the first,
   0.52 m per axis: its RMS over the worlds it was tuned on, seeds 2-3 (paper-fig7-alt200 0.45 / 0.45,
   paper-fig8-lm6 0.33 / 0.22, field-alt100-lm6 0.43 / 0.74, real-alt60-lm6 0.41 / 0.82, real-alt120-lm6
-  0.46 / 0.64 m; docs/radius_decomposition.py, 2026-12-03 at c752844, once a crowd's strays pull its
+  0.46 / 0.64 m; docs/radius_decomposition.py, 2026-12-03 at 470d8d1, once a crowd's strays pull its
   centre, :mod:`uvteam.vision.motion` step 7). Before: 0.72 m when first measured (2026-12-02), 0.63 m
   once the detector saw walkers of little contrast (at 8a59b0b), 0.62 m once the blob's centre came
   from its motion history (at 613a079; the value stood). It does not average out
