@@ -32,7 +32,13 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    apart, or moving apart or together in ``apart_frames`` frames in a row, stay two crowds. Two crowds
    that close in slowly, or part again after walking as one blob, are then not joined by a frame in
    which their drift is not (yet) significant; a single significant frame, which one crowd's jittering
-   parts do show now and then, latches nothing;
+   parts do show now and then, latches nothing. Parts latched for their drift alone (not for being
+   ``apart_m`` apart) are one crowd again once, within ``near_m``, the slope of their distance over the
+   last ``rejoin_s`` (both seen over most of it) is under half ``max_rel_speed_m_s``, significant or not:
+   a loose crowd's rear part whose distance to the rest grew by 1.5 m in a second and then held at
+   7.5-9 m was reported as a crowd of its own for 22 s (tuning seed 108 of real-alt120-lm6), where two
+   crowds do not keep their distance for long. So does a crowd that comes out of a blob which took in
+   such a pair (step 4);
 4. two crowds known apart whose blobs become one (one of them unseen, both predicted centres in one
    blob's footprint) are remembered as that blob's track holding a second crowd
    (:attr:`GroupingState.holds`), until the unseen one's track is seen again; the memory goes on with
@@ -100,7 +106,8 @@ class GroupingConfig:
     significance: float = 4.0     # ... and by this many standard errors of the fitted slope
     confirm_hits: int = 3         # a crowd is reported once its longest-seen part was seen this often
     apart_m: float = 18.0         # parts once this far apart are two crowds while both are tracked,
-    apart_frames: int = 10        # ... and so are parts whose distance changed significantly this many frames in a row
+    apart_frames: int = 10        # ... and so are parts whose distance changed significantly this many frames in a row,
+    rejoin_s: float = 6.0         # ... until, near, their distance holds over this long (0: never; <= the tracks' trail)
     scatter_s: float = 10.0       # a crowd's radius counts the scatter of its estimates over this long
     scatter_min_points: int = 5   # ... once there are this many
     scatter_fast_s: float = 1.0   # ... the scatter within this long is frame noise, the rest the steady offset changing
@@ -128,8 +135,9 @@ class GroupingConfig:
             raise ValueError(f"scatter_fast_s must be > 0, got {self.scatter_fast_s}")
         if not (self.steady_per_scatter >= 0.0 and self.steady_min_m >= 0.0):
             raise ValueError("steady_per_scatter and steady_min_m must be >= 0")
-        if not (self.apart_m >= self.near_m and self.apart_frames >= 1):
-            raise ValueError(f"apart_m must be >= near_m and apart_frames >= 1, got {self.apart_m}, {self.apart_frames}")
+        if not (self.apart_m >= self.near_m and self.apart_frames >= 1 and self.rejoin_s >= 0.0):
+            raise ValueError(f"apart_m must be >= near_m, apart_frames >= 1 and rejoin_s >= 0, got {self.apart_m}, "
+                             f"{self.apart_frames}, {self.rejoin_s}")
 
 
 HOLD_MARGIN_M = 2.0        # a predicted centre this far outside a footprint is still in it (track velocities are rough)
@@ -143,6 +151,7 @@ class Held:
     since_s: float                 # when the blob took it in
     pair: Pair                     # the two tracks known apart that became one blob
     lost: tuple[int, ...]          # the tracks the blob took in (unseen since)
+    drifted: bool = False          # the pair was known apart for its drift alone (what comes out may rejoin)
 
 
 @dataclass(frozen=True, slots=True)
@@ -154,20 +163,27 @@ class GroupingState:
     holds: Mapping[int, tuple[Held, ...]] = field(default_factory=dict)  # per track, the other crowds its blob took in
     last_seen: Mapping[int, "LastSeen"] = field(default_factory=dict)  # per reported crowd id, the crowd as last seen
     alias: Mapping[int, int] = field(default_factory=dict)  # track id -> the id of the crowd it found again
+    drifted: frozenset[Pair] = frozenset()   # the pairs in ``apart`` for their drift alone (they may rejoin)
 
 
 def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig = GroupingConfig(),
                  boxes_en: np.ndarray | None = None, areas: np.ndarray | None = None,
-                 apart: frozenset[Pair] = frozenset(), streak: Mapping[Pair, int] | None = None
-                 ) -> tuple[list[int], frozenset[Pair], dict[Pair, int]]:
+                 apart: frozenset[Pair] = frozenset(), streak: Mapping[Pair, int] | None = None,
+                 drifted: frozenset[Pair] = frozenset()
+                 ) -> tuple[list[int], frozenset[Pair], dict[Pair, int], frozenset[Pair]]:
     """A group label per track (this frame's estimates): tracks with one label are one crowd.
     ``boxes_en`` (n, 4): each estimate's footprint as east/north min/max; ``areas`` (n,): its moving pixels;
-    ``apart``, ``streak``: what earlier frames learnt (:class:`GroupingState`). Returns the labels and
-    the pairs known apart and the streaks after this frame."""
+    ``apart``, ``streak``, ``drifted``: what earlier frames learnt (:class:`GroupingState`). Returns the
+    labels and the pairs known apart, the streaks and the pairs apart for their drift after this frame."""
     n = len(tracks)
     parent = list(range(n))
     apart = set(apart)
     streak, new_streak = streak or {}, {}
+    drifted = set(drifted)
+    # rejoining asks for the drift itself to be small over rejoin_s, significant or not (a slope fitted
+    # across a drift that stopped is seldom significant)
+    rejoin_cfg = (replace(cfg, window_s=cfg.rejoin_s, min_span_s=0.9 * cfg.rejoin_s, significance=0.0)
+                  if cfg.rejoin_s > 0 else cfg)
 
     def root(i: int) -> int:
         while parent[i] != i:
@@ -176,7 +192,7 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
         return i
 
     since = stamp_s - cfg.window_s - 1e-6      # the drift is fitted over the last window_s of the trails
-    trails = [{k: (s[1], s[2]) for s in t.trail if (k := round(s[0], 3)) > since} for t in tracks]
+    trails = [_trail_since(t, since) for t in tracks]
     en = np.array([[t.east_m, t.north_m] for t in tracks], float).reshape(-1, 2)
     dist = np.sqrt(((en[:, None] - en[None]) ** 2).sum(-1))
     near = dist < cfg.near_m
@@ -191,6 +207,13 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
     for i, j in np.argwhere(np.triu(near | far, 1)).tolist():   # in (i, j) order, as pairs were always taken
         pair = (min(ids[i], ids[j]), max(ids[i], ids[j]))
         if pair in apart:
+            # apart for a drift that has stopped: two crowds do not keep their distance for long (step 3)
+            if pair in drifted and near[i, j] and cfg.rejoin_s > 0 and _rel_speed_m_s(
+                    _trail_since(tracks[i], stamp_s - cfg.rejoin_s), _trail_since(tracks[j], stamp_s - cfg.rejoin_s),
+                    stamp_s, rejoin_cfg) <= 0.5 * cfg.max_rel_speed_m_s:
+                apart.discard(pair)
+                drifted.discard(pair)
+                parent[root(j)] = root(i)
             continue
         if far[i, j]:
             apart.add(pair)
@@ -199,10 +222,16 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
             new_streak[pair] = streak.get(pair, 0) + 1
             if new_streak[pair] >= cfg.apart_frames:
                 apart.add(pair)
+                drifted.add(pair)
                 del new_streak[pair]
         else:                          # not significant, or NaN (not seen apart long enough): one crowd
             parent[root(j)] = root(i)
-    return [root(i) for i in range(n)], frozenset(apart), new_streak
+    return [root(i) for i in range(n)], frozenset(apart), new_streak, frozenset(drifted & apart)
+
+
+def _trail_since(track: CrowdTrack, since_s: float) -> dict:
+    """A track's estimates after ``since_s``: {stamp s rounded to ms: (east m, north m)}."""
+    return {k: (s[1], s[2]) for s in track.trail if (k := round(s[0], 3)) > since_s}
 
 
 def _rel_speed_m_s(a: dict, b: dict, stamp_s: float, cfg: GroupingConfig) -> float:
@@ -489,7 +518,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     holds = _merged(state, live, trk, boxes_all, stamp_s)
     estimates = tuple(_with_scatter(c, t, cfg) for c, t in zip(estimates, trk))
     confirmed = [k for k in range(len(trk)) if trk[k].hits >= cfg.confirm_hits]  # a one-frame blob joins nothing
-    apart = set(state.apart)
+    apart, drifted = set(state.apart), set(state.drifted)
     for x, since in list(holds.items()):    # crowds coming out of the blob that took them in
         at = live[x].predicted(stamp_s)
         # the blob's own track if seen, and parts first seen since the merge beside where it is
@@ -499,13 +528,15 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
             pair = (min(out_of[0], y), max(out_of[0], y))
             if pair not in apart and since:
                 apart.add(pair)
+                if since[-1].drifted:
+                    drifted.add(pair)
                 since = holds[x] = since[:-1]
     groups: dict[int, list[int]] = {}
     parts = confirmed + _young_parts(state, estimates, confirmed, stamp_s, holds, cfg)
     boxes_en = boxes_all[parts].reshape(-1, 4)
     areas = np.array([estimates[k].area_px for k in parts], float)
-    labels, apart, streak = crowd_groups([trk[k] for k in parts], stamp_s, cfg, boxes_en, areas,
-                                         frozenset(apart), state.streak)
+    labels, apart, streak, drifted = crowd_groups([trk[k] for k in parts], stamp_s, cfg, boxes_en, areas,
+                                                  frozenset(apart), state.streak, frozenset(drifted))
     for k, g in zip(parts, labels):
         groups.setdefault(g, []).append(k)
     out = []
@@ -519,7 +550,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     out.sort(key=lambda c: (-c.track.hits, c.crowd_id))
     apart = frozenset(p for p in apart if p[0] in live and p[1] in live)   # forgotten with either track
     holds = {x: v for x, v in holds.items() if v and x in live}
-    return GroupingState(tracker, apart, streak, holds, last_seen, alias), out
+    return GroupingState(tracker, apart, streak, holds, last_seen, alias, drifted & apart), out
 
 
 def _in_boxes(points_en: np.ndarray, boxes_en: np.ndarray, margin_m: float = 0.0) -> np.ndarray:
@@ -601,7 +632,8 @@ def _merged(state: GroupingState, live: Mapping[int, CrowdTrack], trk: list[Crow
             taken = tuple(s for y in gone if y != x for s in holds.pop(y, ()))
             lost = tuple(y for y in gone if y != x)
             hidden = len(gone) - (x not in (a, b))    # crowds in the blob, less the one seen as it
-            held = tuple(sorted(holds.get(x, ()) + taken + (Held(stamp_s, (a, b), lost),) * hidden))
+            held = tuple(sorted(holds.get(x, ()) + taken
+                                + (Held(stamp_s, (a, b), lost, (a, b) in state.drifted),) * hidden))
             if held:
                 holds[x] = held
     return holds

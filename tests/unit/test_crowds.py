@@ -77,7 +77,7 @@ def test_far_parts_are_separate_and_confirmation_counts_hits():
 
 
 def test_groups_and_config_checks():
-    assert crowd_groups([], T0) == ([], frozenset(), {})
+    assert crowd_groups([], T0) == ([], frozenset(), {}, frozenset())
     with pytest.raises(ValueError):
         GroupingConfig(max_rel_speed_m_s=0.0)
     with pytest.raises(ValueError):
@@ -113,6 +113,20 @@ def test_a_small_part_beside_a_crowds_edge_joins_it_a_big_one_does_not():
         assert len(out) == crowds
 
 
+def test_a_part_latched_apart_by_a_drift_that_stopped_rejoins_after_it_hides_and_comes_out():
+    # a loose crowd's rear part drifts 3 m back in 3 s (latched apart), then keeps 9 m behind; at 5 s it
+    # goes unseen in the front part's footprint (the blob took it in, step 4) long enough for its
+    # track to end, and comes out again at 7 s under a new track: still two crowds at first, as what
+    # comes out of a blob that took in two crowds is; but the pair was apart for its drift alone, so
+    # once the new part has kept its distance for rejoin_s it is the crowd's again
+    sep = lambda t: 6.0 + min(t, 3.0)                                          # noqa: E731
+    parts = lambda t: [(1.4 * t, 0.0, 20.0, 10.0)] + ([] if 5.0 <= t < 7.0 else [(1.4 * t - sep(t), 0.0, 10.0)])  # noqa: E731
+    run(parts, seconds=20.0, jitter_m=0.2)
+    assert run.counts[40:50] == [2] * 10 and run.counts[75:90] == [2] * 15 and run.counts[-20:] == [1] * 20
+    run(parts, seconds=20.0, jitter_m=0.2, cfg=GroupingConfig(rejoin_s=0.0))
+    assert run.counts[-20:] == [2] * 20
+
+
 def test_two_crowds_once_far_apart_stay_two_when_they_close_in_slowly():
     # 20 m apart, closing at 0.3 m/s (below max_rel_speed_m_s): once within near_m their drift proves
     # nothing, but they were seen as two crowds before, so they stay two; parts first seen near stay one
@@ -129,10 +143,14 @@ def test_two_crowds_once_far_apart_stay_two_when_they_close_in_slowly():
 
 def test_parts_seen_drifting_apart_for_several_frames_stay_two_when_the_drift_stops():
     # two crowds parting at 1 m/s for 3 s, then walking on side by side 9 m apart (within near_m, no
-    # drift): the drift was significant for apart_frames in a row, so they stay two
+    # drift): the drift was significant for apart_frames in a row, so they stay two, for rejoin_s
+    # after the drift stops; parts that keep their distance longer are one crowd again
     sep = lambda t: 6.0 + min(t, 3.0)                                          # noqa: E731
-    run(lambda t: [(1.4 * t, 0.0, 20.0), (1.4 * t + sep(t), 0.0, 10.0)], seconds=12.0, jitter_m=0.2)
+    run(lambda t: [(1.4 * t, 0.0, 20.0), (1.4 * t + sep(t), 0.0, 10.0)], seconds=12.0, jitter_m=0.2,
+        cfg=GroupingConfig(rejoin_s=0.0))
     assert set(run.counts[-60:]) == {2} and len(run.state.apart) == 1
+    run(lambda t: [(1.4 * t, 0.0, 20.0), (1.4 * t + sep(t), 0.0, 10.0)], seconds=16.0, jitter_m=0.2)
+    assert run.counts[30:70] == [2] * 40 and run.counts[-10:] == [1] * 10 and run.state.apart == frozenset()
     # latching needs frames in a row: with apart_frames beyond the drift's length nothing latches, and
     # once their distance stops changing the parts are joined again
     run(lambda t: [(1.4 * t, 0.0, 20.0), (1.4 * t + sep(t), 0.0, 10.0)], seconds=12.0, jitter_m=0.2,
