@@ -557,9 +557,9 @@ class MotionDetector:
                                                    (cx + 0.5) * inv - 0.5, (cy + 0.5) * inv - 0.5))
         out = list(xy)
         for b, pieces in pull.items():
-            w = areas[b] + sum(a for a, _, _ in pieces)
-            out[b] = [(areas[b] * xy[b][0] + sum(a * px for a, px, _ in pieces)) / w,
-                      (areas[b] * xy[b][1] + sum(a * py for a, _, py in pieces)) / w]
+            total = areas[b] + sum(a for a, _, _ in pieces)
+            out[b] = [(areas[b] * xy[b][0] + sum(a * px for a, px, _ in pieces)) / total,
+                      (areas[b] * xy[b][1] + sum(a * py for a, _, py in pieces)) / total]
         return out
 
     def register(self, frame: np.ndarray, stamp_s: float) -> Registration | None:
