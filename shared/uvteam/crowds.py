@@ -180,10 +180,6 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
     apart = set(apart)
     streak, new_streak = streak or {}, {}
     drifted = set(drifted)
-    # rejoining asks for the drift itself to be small over rejoin_s, significant or not (a slope fitted
-    # across a drift that stopped is seldom significant)
-    rejoin_cfg = (replace(cfg, window_s=cfg.rejoin_s, min_span_s=0.9 * cfg.rejoin_s, significance=0.0)
-                  if cfg.rejoin_s > 0 else cfg)
 
     def root(i: int) -> int:
         while parent[i] != i:
@@ -208,9 +204,12 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
         pair = (min(ids[i], ids[j]), max(ids[i], ids[j]))
         if pair in apart:
             # apart for a drift that has stopped: two crowds do not keep their distance for long (step 3)
+            # rejoining asks for the drift itself to be small over rejoin_s, significant or not (a slope
+            # fitted across a drift that stopped is seldom significant)
             if pair in drifted and near[i, j] and cfg.rejoin_s > 0 and _rel_speed_m_s(
                     _trail_since(tracks[i], stamp_s - cfg.rejoin_s), _trail_since(tracks[j], stamp_s - cfg.rejoin_s),
-                    stamp_s, rejoin_cfg) <= 0.5 * cfg.max_rel_speed_m_s:
+                    stamp_s, replace(cfg, window_s=cfg.rejoin_s, min_span_s=0.9 * cfg.rejoin_s, significance=0.0)
+                    ) <= 0.5 * cfg.max_rel_speed_m_s:
                 apart.discard(pair)
                 drifted.discard(pair)
                 parent[root(j)] = root(i)
