@@ -7,9 +7,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from uvteam.vision.landmarks import DEFAULT_COLORS, LandmarkConfig, detect_landmarks
-from uvteam.vision.motion import MotionConfig, MotionDetector, bounds_for_altitude
+from uvteam.vision.motion import MotionConfig, MotionDetector, _windows, bounds_for_altitude
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
 GOLDEN = json.loads((Path(__file__).resolve().parents[1] / "data" / "golden_motion.json").read_text())
@@ -366,6 +368,26 @@ def test_walkers_seen_in_some_frames_weigh_in_a_crowd_s_centre():
                 assert len(b) == 1
                 errors.append(float(np.hypot(*(b.xy_px[0] - centre))))
     assert np.mean(errors) < 6.5
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 90), st.integers(0, 60), st.integers(0, 30), st.integers(0, 30)),
+                min_size=1, max_size=6), st.integers(0, 20))
+def test_stray_windows_are_disjoint_and_hold_every_pixel_near_a_crowd(boxes, margin):
+    # step 7 labels each window on its own: a piece in two windows would pull its crowd twice, a pixel
+    # within the margin of a crowd's box in none would cut its piece short
+    w, h = 120, 80
+    xyxy = np.array([(x, y, x + bw, y + bh) for x, y, bw, bh in boxes], float)
+    wins = _windows(xyxy, float(margin), w, h)
+    count = np.zeros((h, w), int)
+    for x0, y0, x1, y1 in wins:
+        assert 0 <= x0 < x1 <= w and 0 <= y0 < y1 <= h
+        count[y0:y1, x0:x1] += 1
+    assert count.max() == 1
+    yy, xx = np.mgrid[:h, :w]
+    for x0, y0, x1, y1 in xyxy:
+        near = (xx >= x0 - margin) & (xx <= x1 + margin) & (yy >= y0 - margin) & (yy <= y1 + margin)
+        assert (count[near] == 1).all()
 
 
 def test_stray_settings_are_checked():

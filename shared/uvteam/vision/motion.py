@@ -401,6 +401,26 @@ def _centre_now(moved: np.ndarray, age: np.ndarray, box: tuple[int, int, int, in
     return min(max(x - vx * a_mean, bx), bx + bw - 1), min(max(y - vy * a_mean, by), by + bh - 1)
 
 
+def _windows(boxes: np.ndarray, margin: float, w: int, h: int) -> list[tuple[int, int, int, int]]:
+    """Windows (x0, y0, x1, y1; ints, x1 and y1 exclusive, inside a w x h image) round each box (x0, y0,
+    x1, y1) widened by ``margin``, those that overlap joined into the box round both until none
+    overlaps: every pixel within ``margin`` of a box lies in exactly one window."""
+    out = [[max(int(x0 - margin), 0), max(int(y0 - margin), 0), min(int(x1 + margin) + 1, w),
+            min(int(y1 + margin) + 1, h)] for x0, y0, x1, y1 in boxes]
+    i = 0
+    while i < len(out):
+        a = out[i]
+        j = next((j for j in range(len(out)) if j != i and a[0] < out[j][2] and out[j][0] < a[2]
+                  and a[1] < out[j][3] and out[j][1] < a[3]), None)
+        if j is None:
+            i += 1
+            continue
+        b = out.pop(j)
+        out[i - (j < i)] = [min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]), max(a[3], b[3])]
+        i = 0      # the joined window may now overlap one already passed
+    return [tuple(o) for o in out]
+
+
 def _close(mask: np.ndarray, kernel: np.ndarray) -> np.ndarray:
     """A closing of a blob's crop that does not join it to the crop's edge (padded with nothing moving)."""
     pad = kernel.shape[0]
@@ -527,34 +547,33 @@ class MotionDetector:
             return xy
         reach = cfg.stray_reach * cfg.merge_px
         box = np.array([boxes[b] for b in crowds], float) * s    # x0, y0, x1, y1, processed px
-        # only round the crowds (two reaches: a piece centred within reach lies whole inside unless it
-        # is longer than a reach), not the whole frame: the labelling is most of this step's cost
-        h, w = recent.shape
-        wx0, wy0 = max(int(box[:, 0].min() - 2 * reach), 0), max(int(box[:, 1].min() - 2 * reach), 0)
-        wx1, wy1 = min(int(box[:, 2].max() + 2 * reach) + 1, w), min(int(box[:, 3].max() + 2 * reach) + 1, h)
-        rest = recent[wy0:wy1, wx0:wx1].copy()
-        for x, y, bw, bh, comp in comps:
-            ox0, oy0, ox1, oy1 = max(x, wx0), max(y, wy0), min(x + bw, wx1), min(y + bh, wy1)
-            if ox0 < ox1 and oy0 < oy1:
-                rest[oy0 - wy0:oy1 - wy0, ox0 - wx0:ox1 - wx0][comp[oy0 - y:oy1 - y, ox0 - x:ox1 - x]] = 0
-        n, _, stats, centres = cv2.connectedComponentsWithStats(rest, connectivity=8)
-        centres = centres + (wx0, wy0)
+        # labelled only round each crowd (two reaches: a piece centred within reach lies whole inside
+        # unless it is longer than a reach), not over the box round all crowds: the labelling's cost
+        # goes with the area labelled (docs/performance.md, session 23)
         least = cfg.min_area_px * cfg.stray_min_share * s * s    # processed px
         pull: dict[int, list[tuple[float, float, float]]] = {}
-        for i in range(1, n):
-            if stats[i, cv2.CC_STAT_AREA] < least:
-                continue
-            cx, cy = centres[i]
-            dx = np.maximum(np.maximum(box[:, 0] - cx, cx - box[:, 2]), 0.0)
-            dy = np.maximum(np.maximum(box[:, 1] - cy, cy - box[:, 3]), 0.0)
-            d = np.hypot(dx, dy)
-            k = int(d.argmin())
-            if d[k] >= reach:
-                continue
-            if r2 > 0 and any(float(_d2_to_segment(cx, cy, carve[j], tails[j])) <= 4.0 * r2 for j in range(len(carve))):
-                continue   # a vehicle's trail, not a walker
-            pull.setdefault(crowds[k], []).append((float(stats[i, cv2.CC_STAT_AREA]) * inv * inv,
-                                                   (cx + 0.5) * inv - 0.5, (cy + 0.5) * inv - 0.5))
+        for wx0, wy0, wx1, wy1 in _windows(box, 2 * reach, *recent.shape[::-1]):
+            rest = recent[wy0:wy1, wx0:wx1].copy()
+            for x, y, bw, bh, comp in comps:
+                ox0, oy0, ox1, oy1 = max(x, wx0), max(y, wy0), min(x + bw, wx1), min(y + bh, wy1)
+                if ox0 < ox1 and oy0 < oy1:
+                    rest[oy0 - wy0:oy1 - wy0, ox0 - wx0:ox1 - wx0][comp[oy0 - y:oy1 - y, ox0 - x:ox1 - x]] = 0
+            n, _, stats, centres = cv2.connectedComponentsWithStats(rest, connectivity=8)
+            centres = centres + (wx0, wy0)
+            for i in range(1, n):
+                if stats[i, cv2.CC_STAT_AREA] < least:
+                    continue
+                cx, cy = centres[i]
+                dx = np.maximum(np.maximum(box[:, 0] - cx, cx - box[:, 2]), 0.0)
+                dy = np.maximum(np.maximum(box[:, 1] - cy, cy - box[:, 3]), 0.0)
+                d = np.hypot(dx, dy)
+                k = int(d.argmin())
+                if d[k] >= reach:
+                    continue
+                if r2 > 0 and any(float(_d2_to_segment(cx, cy, carve[j], tails[j])) <= 4.0 * r2 for j in range(len(carve))):
+                    continue   # a vehicle's trail, not a walker
+                pull.setdefault(crowds[k], []).append((float(stats[i, cv2.CC_STAT_AREA]) * inv * inv,
+                                                       (cx + 0.5) * inv - 0.5, (cy + 0.5) * inv - 0.5))
         out = list(xy)
         for b, pieces in pull.items():
             total = areas[b] + sum(a for a, _, _ in pieces)
