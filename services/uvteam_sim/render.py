@@ -29,8 +29,10 @@ What a frame holds, and how it is made (every number here is a modelling choice,
   so a texel smaller than a pixel (off nadir, tilted, or a fine ``texel_m``) does not alias. Off (the
   default for the procedural ground) it is sampled as it always was: one bilinear tap per pixel.
   ``blur_sigma_px`` then blurs the whole image (ground and objects) with a Gaussian, before the noise.
-- **Objects**, drawn in ground coordinates and projected at their height with anti-aliased sub-pixel
-  polygons: shadows first (of walkers, UGVs and distractors; sun at 55 deg elevation from the
+- **Objects**, drawn in ground coordinates and projected at their height as sub-pixel polygons, each
+  pixel taking the share of its area a polygon covers (counted on a 16 x 16 grid in the pixel, as a
+  lens integrates light; OpenCV's own anti-aliased fill made still edges flicker under sub-pixel
+  wobble, see ``_fill``): shadows first (of walkers, UGVs and distractors; sun at 55 deg elevation from the
   south-east, shadows darken the ground to 55 %), then the distractors (``uvteam_sim.world``:
   painted squares; parked vehicles and flat-roofed sheds drawn as their walls, the convex hull of
   base and top at 70 % of the top's grey, then their top, then the label-coloured patch of
@@ -74,6 +76,8 @@ NOISE_BANK = 6
 NOISE_PAD = 64
 _SHIFT = 4                        # cv2 drawing: 4 fractional bits
 _ONE = 1 << _SHIFT
+COVERAGE_SS = 16                  # objects: a pixel's share of a polygon counted on a 16 x 16 grid in it
+COVERAGE_MAX_PX = 4_000_000       # ... a polygon's box on that grid at most this big (a coarser grid past it)
 MAX_TEXTURE_BYTES = 256 * 2 ** 20  # a run's ground texture (its mip levels add a third; the procedural one is made in float32)
 TILE_OVERLAP = 0.1                 # imagery mosaic: neighbouring pieces overlap by this fraction and cross-fade
 MAX_MIP_LEVELS = 8
@@ -89,6 +93,35 @@ def _value_noise(rng: np.random.Generator, shape: tuple[int, int], cell_px: floa
     g = rng.standard_normal((gh, gw)).astype(np.float32)
     up = cv2.resize(g, (int(gw * cell_px), int(gh * cell_px)), interpolation=cv2.INTER_CUBIC)
     return up[:h, :w]
+
+
+def _fill(img: np.ndarray, poly: np.ndarray, value) -> None:
+    """Fill a polygon (int32 vertices in 1/16 px, pixel centres on integers) into ``img`` in place, each
+    pixel blended by the share of its area the polygon covers, as a lens and sensor integrate light.
+    OpenCV's anti-aliased fill is not that: a pixel on an edge or a corner jumps by up to three quarters
+    of the contrast when the polygon moves by 1/32 px, so a still object under hover wobble flickers at
+    its edges, which a motion detector rightly takes for motion (a diamond moved in 1/32 px steps: 188
+    of 255 grey levels at most; counted on the 16 x 16 grid, 30 for a 1/64 px step). OpenCV fills the
+    grid cells an edge runs through on the polygon's right and lower side too: objects are up to 1/16
+    px bigger there, the same in every frame."""
+    p = poly.reshape(-1, 2).astype(np.float64) / _ONE
+    h, w = img.shape[:2]
+    x0, y0 = max(int(np.floor(p[:, 0].min())) - 1, 0), max(int(np.floor(p[:, 1].min())) - 1, 0)
+    x1, y1 = min(int(np.ceil(p[:, 0].max())) + 2, w), min(int(np.ceil(p[:, 1].max())) + 2, h)
+    if x1 <= x0 or y1 <= y0:
+        return
+    ss = COVERAGE_SS
+    while ss > 1 and (x1 - x0) * (y1 - y0) * ss * ss > COVERAGE_MAX_PX:
+        ss //= 2
+    # pixel (x, y) covers [x - 0.5, x + 0.5); on the fine grid its ss x ss cells' centres
+    fine = np.rint(((p - (x0, y0) + 0.5) * ss - 0.5) * _ONE).astype(np.int32)
+    mask = np.zeros(((y1 - y0) * ss, (x1 - x0) * ss), np.uint8)
+    cv2.fillPoly(mask, [fine], 255, cv2.LINE_8, _SHIFT)
+    a = cv2.resize(mask, (x1 - x0, y1 - y0), interpolation=cv2.INTER_AREA).astype(np.float32) * (1.0 / 255.0)
+    roi = img[y0:y1, x0:x1]
+    paint = np.empty_like(roi)
+    paint[...] = value
+    roi[...] = cv2.blendLinear(roi, paint, 1.0 - a, a)
 
 
 def make_ground_texture(rng: np.random.Generator, size_px: tuple[int, int], texel_m: float) -> np.ndarray:
@@ -333,7 +366,7 @@ class Renderer:
                 poly = self._poly_px(pose, _ellipse_m(m[j] + self.shadow_dir * length / 2, self.shadow_dir,
                                                       length / 2 + 0.1, 0.2 * s), ground[j])
                 if poly is not None:
-                    cv2.fillPoly(shade, [poly], gain, cv2.LINE_AA, _SHIFT)
+                    _fill(shade, poly, gain)
                 people.append((m[j], ground[j], along, s, self.person_bgr[k][j]))
         ugv_up = world.terrain_up_m(world.ugv_p)
         bodies = []
@@ -347,35 +380,35 @@ class Renderer:
             hull = cv2.convexHull(np.vstack([corners, corners + sh]).astype(np.float32)).reshape(-1, 2)
             poly = self._poly_px(pose, world.ugv_p[i] + hull, ugv_up[i])
             if poly is not None:
-                cv2.fillPoly(shade, [poly], gain, cv2.LINE_AA, _SHIFT)
+                _fill(shade, poly, gain)
             lab = sc.ugvs.label_side_m / 2
             label = np.array([fwd * a * lab + side * b * lab for a, b in ((1, 1), (1, -1), (-1, -1), (-1, 1))])
             bodies.append((world.ugv_p[i] + corners, world.ugv_p[i] + label, ugv_up[i] + ROOF_HEIGHT_M, color))
         things = [self._distractor_polys(pose, d) for d in world.distractors]
         for th in things:
             if th is not None and th[0] is not None:
-                cv2.fillPoly(shade, [th[0]], gain, cv2.LINE_AA, _SHIFT)
+                _fill(shade, th[0], gain)
         frame = cv2.multiply(frame, cv2.merge([shade, shade, shade]), scale=1.0 / 255.0)
         for th in things:
             if th is not None:
                 for poly, bgr in th[1]:
-                    cv2.fillPoly(frame, [poly], bgr, cv2.LINE_AA, _SHIFT)
+                    _fill(frame, poly, bgr)
         for body, label, up, color in bodies:
             pb = self._poly_px(pose, body, up)
             pl = self._poly_px(pose, label, up)
             if pb is None or pl is None:
                 continue
-            cv2.fillPoly(frame, [pb], (58, 62, 66), cv2.LINE_AA, _SHIFT)
+            _fill(frame, pb, (58, 62, 66))
             if sc.ugvs.roof_labels:
-                cv2.fillPoly(frame, [pl], LABEL_BGR.get(color, (255, 255, 255)), cv2.LINE_AA, _SHIFT)
+                _fill(frame, pl, LABEL_BGR.get(color, (255, 255, 255)))
         for pos, ground, along, s, bgr in people:
             across = np.array([along[1], -along[0]])
             body = self._poly_px(pose, _ellipse_m(pos, across, 0.24 * s, 0.15 * s, 10), ground + PERSON_CENTRE_HEIGHT_M)
             head = self._poly_px(pose, _ellipse_m(pos, across, 0.11 * s, 0.11 * s, 8), ground + PERSON_HEIGHT_M * s)
             if body is None or head is None:
                 continue
-            cv2.fillPoly(frame, [body], tuple(float(x) for x in bgr), cv2.LINE_AA, _SHIFT)
-            cv2.fillPoly(frame, [head], (30, 38, 52), cv2.LINE_AA, _SHIFT)
+            _fill(frame, body, tuple(float(x) for x in bgr))
+            _fill(frame, head, (30, 38, 52))
         if sc.lens.blur_sigma_px > 0:
             frame = cv2.GaussianBlur(frame, (0, 0), sc.lens.blur_sigma_px)
         return self._sensor(frame)
