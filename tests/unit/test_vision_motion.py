@@ -477,3 +477,23 @@ def test_the_threshold_settings_are_checked():
         MotionConfig(gradient_gain=-0.1)
     with pytest.raises(ValueError):
         MotionConfig(noise_k=-1.0)
+
+
+def test_the_box_test_sees_a_walker_too_faint_for_any_pixel_and_no_shimmer():
+    from uvteam.vision.uav import UavVisionConfig
+    shipped = UavVisionConfig(focal_px=790.0, colors=("red",)).motion
+    pixels_only = replace(shipped, box_k=0.0)
+    boxed = replace(shipped, box_k=5.0)
+    # 7 grey levels, 1 of noise: under the per-pixel floor of 8, never seen by the pixel test alone
+    assert all(len(b) == 0 for b, _ in _flat_and_textured_frames(pixels_only, contrast=7.0))
+    # summed over 3 x 3 it is: the walker in most frames, and nothing on the gravel's shimmer
+    seen = 0
+    for b, (x, y) in _flat_and_textured_frames(boxed, contrast=7.0):
+        assert not (b.xy_px[:, 0] < 640).any()
+        assert len(b) <= 1
+        if len(b):
+            seen += 1
+            assert abs(b.xy_px[0, 0] - x) < 8 and abs(b.xy_px[0, 1] - y) < 3
+    assert seen >= 6
+    with pytest.raises(ValueError):
+        MotionConfig(box_k=-1.0)

@@ -25,7 +25,12 @@ Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale``
    3 x 3 neighbourhood's range (max - min: what a shift of up to a pixel can change), the smaller of
    the two frames' (where something moved, one of them shows the flat ground it left or now covers),
    and the threshold is never over ``diff_threshold``. On flat ground it drops to a few times the
-   noise: walkers of little contrast (dark clothes on dark asphalt) are seen moving;
+   noise: walkers of little contrast (dark clothes on dark asphalt) are seen moving. With ``box_k`` > 0
+   a pixel has also moved where the signed difference summed over its 3 x 3 neighbourhood passes
+   ``box_k`` times that sum's own measured noise (at least ``box_floor`` a pixel) plus
+   ``gradient_gain`` times the summed range: a walker of too little contrast for any one pixel to
+   pass changes several pixels alike, and their sum stands out where noise of either sign cancels
+   (:meth:`MotionDetector._box_moving`);
 4. a motion history: the pixels that moved in the last ``history_s`` seconds, warped along with the
    camera so it stays registered, so that a crowd whose members move little per frame stays one blob
    (only the box around recent motion is warped: the rest is "long ago" and stays so);
@@ -106,6 +111,9 @@ class MotionConfig:
                                        #   3x3 range (grey levels, the smaller of both frames'), step 3;
     diff_floor: float = 8.0            #   the floor: this, or noise_k times the difference's measured
     noise_k: float = 5.0               #   noise (robust sigma), whichever is more; never over diff_threshold
+    box_k: float = 0.0                 # > 0 (with gradient_gain): a pixel also moved where the signed difference's
+    box_floor: float = 3.0             #   3 x 3 mean passes box_k times its own measured noise (at least
+                                       #   box_floor) plus gradient_gain times the mean range (step 3)
     history_s: float = 0.4             # at most 2.5 s (the history counts in 10 ms steps, in a byte)
     compensate_max_scale: float = 0.5  # camera motion is fitted on a copy at most this scale of the input
     merge_px: int = 9                  # closing kernel (processed pixels): joins a crowd's members
@@ -124,9 +132,10 @@ class MotionConfig:
             raise ValueError(f"history_s must be in (0, 2.5], got {self.history_s}")
         if not 0.05 <= self.compensate_max_scale <= 1.0:
             raise ValueError(f"compensate_max_scale must be in [0.05, 1], got {self.compensate_max_scale}")
-        if not (self.gradient_gain >= 0.0 and self.diff_floor >= 0.0 and self.noise_k >= 0.0):
-            raise ValueError(f"gradient_gain, diff_floor and noise_k must be >= 0, got "
-                             f"{self.gradient_gain}, {self.diff_floor}, {self.noise_k}")
+        if not (self.gradient_gain >= 0.0 and self.diff_floor >= 0.0 and self.noise_k >= 0.0
+                and self.box_k >= 0.0 and self.box_floor >= 0.0):
+            raise ValueError(f"gradient_gain, diff_floor, noise_k, box_k and box_floor must be >= 0, got "
+                             f"{self.gradient_gain}, {self.diff_floor}, {self.noise_k}, {self.box_k}, {self.box_floor}")
         if self.speckle not in ("open", "neighbours"):
             raise ValueError(f"speckle must be 'open' or 'neighbours', got {self.speckle!r}")
         if self.model not in ("homography", "affine"):
@@ -674,6 +683,8 @@ class MotionDetector:
             g = cv2.min(_local_range(curr), _local_range(warped))
             limit = cv2.min(cv2.convertScaleAbs(g, alpha=cfg.gradient_gain, beta=floor), int(cfg.diff_threshold))
             moving = cv2.compare(diff, limit, cv2.CMP_GT)
+            if cfg.box_k > 0:
+                cv2.bitwise_or(moving, self._box_moving(curr, warped, g, valid), dst=moving)
         else:
             _, moving = cv2.threshold(diff, cfg.diff_threshold, 255, cv2.THRESH_BINARY)
         cv2.bitwise_and(moving, valid, dst=moving)
@@ -690,6 +701,23 @@ class MotionDetector:
         moving[:, :b] = 0
         moving[:, -b:] = 0
         return moving
+
+    def _box_moving(self, curr: np.ndarray, warped: np.ndarray, g: np.ndarray, valid: np.ndarray) -> np.ndarray:
+        """Step 3's second test: where the signed difference's 3 x 3 sum passes ``box_k`` times its own
+        noise, measured in this sum (at least ``box_floor`` grey levels a pixel), plus ``gradient_gain``
+        times the sum of the ground's range; never over ``diff_threshold`` a pixel. A walker of little
+        contrast changes a few pixels alike, each by little more than the per-pixel noise; summed, its
+        change stands out by the square root of their number (less where the noise is correlated between
+        neighbours, as after JPEG: the noise is measured in the sum itself), while noise of either sign
+        cancels."""
+        cfg = self.cfg
+        signed = cv2.subtract(curr, warped, dtype=cv2.CV_16S)
+        total = cv2.convertScaleAbs(cv2.boxFilter(signed, cv2.CV_16S, (3, 3), normalize=False))
+        floor = max(9.0 * cfg.box_floor, cfg.box_k * _robust_sigma(total, valid))
+        g_sum = cv2.boxFilter(g, cv2.CV_16U, (3, 3), normalize=False)
+        limit = cv2.min(cv2.convertScaleAbs(g_sum, alpha=cfg.gradient_gain, beta=floor),
+                        int(min(255.0, 9.0 * cfg.diff_threshold)))
+        return cv2.compare(total, limit, cv2.CMP_GT)
 
     def _history(self, moving: np.ndarray, warp, M: np.ndarray, dt_s: float) -> np.ndarray:
         """Step 4: the motion history, kept registered with the camera: each pixel's time since it last
