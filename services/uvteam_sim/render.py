@@ -31,8 +31,10 @@ What a frame holds, and how it is made (every number here is a modelling choice,
   ``blur_sigma_px`` then blurs the whole image (ground and objects) with a Gaussian, before the noise.
 - **Objects**, drawn in ground coordinates and projected at their height as sub-pixel polygons, each
   pixel taking the share of its area a polygon covers (counted on a 16 x 16 grid in the pixel, as a
-  lens integrates light; OpenCV's own anti-aliased fill made still edges flicker under sub-pixel
-  wobble, see ``_fill``): shadows first (of walkers, UGVs and distractors; sun at 55 deg elevation from the
+  lens integrates light; ``lens.objects = "area"``, and by default whenever the ground is prefiltered
+  or the world has distractors). OpenCV's own anti-aliased fill (``"opencv"``, the default otherwise,
+  so every frame of ../shared/scenarios renders as it always did) makes still edges flicker under
+  sub-pixel wobble (``_fill``): shadows first (of walkers, UGVs and distractors; sun at 55 deg elevation from the
   south-east, shadows darken the ground to 55 %), then the distractors (``uvteam_sim.world``:
   painted squares; parked vehicles and flat-roofed sheds drawn as their walls, the convex hull of
   base and top at 70 % of the top's grey, then their top, then the label-coloured patch of
@@ -122,6 +124,12 @@ def _fill(img: np.ndarray, poly: np.ndarray, value) -> None:
     paint = np.empty_like(roi)
     paint[...] = value
     roi[...] = cv2.blendLinear(roi, paint, 1.0 - a, a)
+
+
+def _fill_opencv(img: np.ndarray, poly: np.ndarray, value) -> None:
+    """OpenCV's anti-aliased fill, as objects were drawn before ``_fill``: what ``lens.objects = "auto"``
+    keeps for the procedural ground with no distractors (every frame of ../shared/scenarios as it was)."""
+    cv2.fillPoly(img, [poly], value, cv2.LINE_AA, _SHIFT)
 
 
 def make_ground_texture(rng: np.random.Generator, size_px: tuple[int, int], texel_m: float) -> np.ndarray:
@@ -289,6 +297,7 @@ class Renderer:
         else:
             self.texture = make_ground_texture(rng, (rows, cols), self.texel_m)
         self.mip = mip_pyramid(self.texture) if sc.lens.mipmap(sc.ground) else None
+        self.fill = _fill if sc.lens.area_fill(sc.ground, sc.distractors) else _fill_opencv
         # per-person look, fixed for the run
         self.person_bgr = [rng.uniform((25, 25, 25), (110, 105, 120), (c.members, 3)) for c in sc.crowds]
         self.person_scale = [rng.uniform(0.9, 1.1, c.members) for c in sc.crowds]
@@ -366,7 +375,7 @@ class Renderer:
                 poly = self._poly_px(pose, _ellipse_m(m[j] + self.shadow_dir * length / 2, self.shadow_dir,
                                                       length / 2 + 0.1, 0.2 * s), ground[j])
                 if poly is not None:
-                    _fill(shade, poly, gain)
+                    self.fill(shade, poly, gain)
                 people.append((m[j], ground[j], along, s, self.person_bgr[k][j]))
         ugv_up = world.terrain_up_m(world.ugv_p)
         bodies = []
@@ -380,35 +389,35 @@ class Renderer:
             hull = cv2.convexHull(np.vstack([corners, corners + sh]).astype(np.float32)).reshape(-1, 2)
             poly = self._poly_px(pose, world.ugv_p[i] + hull, ugv_up[i])
             if poly is not None:
-                _fill(shade, poly, gain)
+                self.fill(shade, poly, gain)
             lab = sc.ugvs.label_side_m / 2
             label = np.array([fwd * a * lab + side * b * lab for a, b in ((1, 1), (1, -1), (-1, -1), (-1, 1))])
             bodies.append((world.ugv_p[i] + corners, world.ugv_p[i] + label, ugv_up[i] + ROOF_HEIGHT_M, color))
         things = [self._distractor_polys(pose, d) for d in world.distractors]
         for th in things:
             if th is not None and th[0] is not None:
-                _fill(shade, th[0], gain)
+                self.fill(shade, th[0], gain)
         frame = cv2.multiply(frame, cv2.merge([shade, shade, shade]), scale=1.0 / 255.0)
         for th in things:
             if th is not None:
                 for poly, bgr in th[1]:
-                    _fill(frame, poly, bgr)
+                    self.fill(frame, poly, bgr)
         for body, label, up, color in bodies:
             pb = self._poly_px(pose, body, up)
             pl = self._poly_px(pose, label, up)
             if pb is None or pl is None:
                 continue
-            _fill(frame, pb, (58, 62, 66))
+            self.fill(frame, pb, (58, 62, 66))
             if sc.ugvs.roof_labels:
-                _fill(frame, pl, LABEL_BGR.get(color, (255, 255, 255)))
+                self.fill(frame, pl, LABEL_BGR.get(color, (255, 255, 255)))
         for pos, ground, along, s, bgr in people:
             across = np.array([along[1], -along[0]])
             body = self._poly_px(pose, _ellipse_m(pos, across, 0.24 * s, 0.15 * s, 10), ground + PERSON_CENTRE_HEIGHT_M)
             head = self._poly_px(pose, _ellipse_m(pos, across, 0.11 * s, 0.11 * s, 8), ground + PERSON_HEIGHT_M * s)
             if body is None or head is None:
                 continue
-            _fill(frame, body, tuple(float(x) for x in bgr))
-            _fill(frame, head, (30, 38, 52))
+            self.fill(frame, body, tuple(float(x) for x in bgr))
+            self.fill(frame, head, (30, 38, 52))
         if sc.lens.blur_sigma_px > 0:
             frame = cv2.GaussianBlur(frame, (0, 0), sc.lens.blur_sigma_px)
         return self._sensor(frame)

@@ -21,11 +21,12 @@ from uvteam.errors import ConfigError
 from uvteam.vocab import COLORS
 
 __all__ = ["Scenario", "scenario_from_dict", "Ground", "ImagerySource", "Distractors", "Lens",
-           "GROUND_TEXTURES", "DISTRACTOR_KINDS", "PREFILTERS", "MAX_TILT_DEG", "off_nadir_deg"]
+           "GROUND_TEXTURES", "DISTRACTOR_KINDS", "PREFILTERS", "OBJECT_FILLS", "MAX_TILT_DEG", "off_nadir_deg"]
 
 GROUND_TEXTURES = ("procedural", "imagery")
 DISTRACTOR_KINDS = ("marking", "vehicle", "roof")
 PREFILTERS = ("auto", "mipmap", "none")
+OBJECT_FILLS = ("auto", "area", "opencv")
 MAX_TILT_DEG = 10.0                  # off-nadir angle of the fixed gimbal tilt (the range tested)
 MAX_ATTITUDE_SIGMA_DEG = 3.0         # the gimbal's unreported residual tilt, 1-sigma per axis
 MAX_TURN_SIGMA_DEG_S = 30.0          # a crowd's turn rate, 1-sigma (people round a corner at 20-40 deg/s)
@@ -156,6 +157,16 @@ class Distractors:
 class Lens:
     prefilter: str = "auto"           # ground texture to the pixel footprint: "mipmap" | "none" | "auto"
     blur_sigma_px: float = 0.0        # Gaussian optical blur of the whole image, pixels
+    objects: str = "auto"             # objects' edge pixels: "area" (their covered share) | "opencv" | "auto"
+
+    def area_fill(self, ground: Ground, distractors: Distractors) -> bool:
+        """Whether objects cover each pixel by its area's share ("auto": unless the world is the default
+        procedural ground with no distractors, as every frame of ../shared/scenarios, which renders bit
+        for bit as it always did with OpenCV's anti-aliased fill, whose still edges flicker)."""
+        if self.objects == "auto":
+            return (self.mipmap(ground) or distractors.on_route + distractors.near_crowd
+                    + distractors.scattered > 0)
+        return self.objects == "area"
 
     def mipmap(self, ground: Ground) -> bool:
         """Whether the ground texture is area-averaged to each pixel's footprint ("auto": unless the
@@ -335,5 +346,6 @@ def _validate_optional(sc: Scenario, src: str) -> None:
          f"label colours ({', '.join(COLORS)}), or [] for the UGVs' own; got {list(d.colors)!r}")
     lens = sc.lens
     need(lens.prefilter in PREFILTERS, "lens.prefilter", f"one of {', '.join(PREFILTERS)}; got {lens.prefilter!r}")
+    need(lens.objects in OBJECT_FILLS, "lens.objects", f"one of {', '.join(OBJECT_FILLS)}; got {lens.objects!r}")
     need(inside(lens.blur_sigma_px, 0.0, MAX_BLUR_SIGMA_PX), "lens.blur_sigma_px",
          f"0-{MAX_BLUR_SIGMA_PX:g} px; got {lens.blur_sigma_px!r}")
