@@ -105,7 +105,7 @@ def place_distractors(sc: Scenario, seed: int, crowd_c: np.ndarray, crowd_v: np.
                       footprint_m: tuple[float, float]) -> tuple[Distractor, ...]:
     """The scenario's distractors for this seed (see the module docstring); () when it has none."""
     d = sc.distractors
-    if d.on_route + d.near_crowd + d.scattered == 0:
+    if d.total == 0:
         return ()
     rng = np.random.default_rng([seed, 0xD15])
     colors = d.colors or tuple(sc.ugvs.colors)

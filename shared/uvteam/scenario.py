@@ -152,6 +152,11 @@ class Distractors:
     kinds: tuple[str, ...] = DISTRACTOR_KINDS
     colors: tuple[str, ...] = ()      # () = the UGVs' label colours
 
+    @property
+    def total(self) -> int:
+        """How many distractors a run places (0: none)."""
+        return self.on_route + self.near_crowd + self.scattered
+
 
 @dataclass(frozen=True)
 class Lens:
@@ -164,8 +169,7 @@ class Lens:
         procedural ground with no distractors, as every frame of ../shared/scenarios, which renders bit
         for bit as it always did with OpenCV's anti-aliased fill, whose still edges flicker)."""
         if self.objects == "auto":
-            return (self.mipmap(ground) or distractors.on_route + distractors.near_crowd
-                    + distractors.scattered > 0)
+            return self.mipmap(ground) or distractors.total > 0
         return self.objects == "area"
 
     def mipmap(self, ground: Ground) -> bool:

@@ -21,7 +21,7 @@ def test_a_polygon_covers_its_area_and_no_pixel_outside_it(dx, dy):
     img = np.zeros((40, 40), np.uint8)
     poly = _diamond(20 + dx, 20 + dy)
     _fill(img, _fixed(poly), 255)
-    area_px = 2 * 8.3 ** 2      # OpenCV fills a polygon's edge cells too: 1/32 px more all round (+1 %)
+    area_px = 2 * 8.3 ** 2      # OpenCV fills the cells an edge runs through on the right and lower sides (+1 %)
     assert abs(img.sum() / 255 - area_px) < 0.02 * area_px
     # a pixel wholly inside is full, one wholly outside untouched
     assert img[20, 20] == 255 and img[20 + int(dy), 20 + int(dx) + 10] == 0
