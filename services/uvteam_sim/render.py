@@ -297,7 +297,7 @@ class Renderer:
         else:
             self.texture = make_ground_texture(rng, (rows, cols), self.texel_m)
         self.mip = mip_pyramid(self.texture) if sc.lens.mipmap(sc.ground) else None
-        self.fill = _fill if sc.lens.area_fill(sc.ground, sc.distractors) else _fill_opencv
+        self.fill = _fill if sc.lens.area_fill else _fill_opencv
         # per-person look, fixed for the run
         self.person_bgr = [rng.uniform((25, 25, 25), (110, 105, 120), (c.members, 3)) for c in sc.crowds]
         self.person_scale = [rng.uniform(0.9, 1.1, c.members) for c in sc.crowds]

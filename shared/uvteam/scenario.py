@@ -26,7 +26,7 @@ __all__ = ["Scenario", "scenario_from_dict", "Ground", "ImagerySource", "Distrac
 GROUND_TEXTURES = ("procedural", "imagery")
 DISTRACTOR_KINDS = ("marking", "vehicle", "roof")
 PREFILTERS = ("auto", "mipmap", "none")
-OBJECT_FILLS = ("auto", "area", "opencv")
+OBJECT_FILLS = ("area", "opencv")
 MAX_TILT_DEG = 10.0                  # off-nadir angle of the fixed gimbal tilt (the range tested)
 MAX_ATTITUDE_SIGMA_DEG = 3.0         # the gimbal's unreported residual tilt, 1-sigma per axis
 MAX_TURN_SIGMA_DEG_S = 30.0          # a crowd's turn rate, 1-sigma (people round a corner at 20-40 deg/s)
@@ -162,14 +162,13 @@ class Distractors:
 class Lens:
     prefilter: str = "auto"           # ground texture to the pixel footprint: "mipmap" | "none" | "auto"
     blur_sigma_px: float = 0.0        # Gaussian optical blur of the whole image, pixels
-    objects: str = "auto"             # objects' edge pixels: "area" (their covered share) | "opencv" | "auto"
+    objects: str = "area"             # objects' edge pixels: "area" (their covered share) | "opencv"
 
-    def area_fill(self, ground: Ground, distractors: Distractors) -> bool:
-        """Whether objects cover each pixel by its area's share ("auto": unless the world is the default
-        procedural ground with no distractors, as every frame of ../shared/scenarios, which renders bit
-        for bit as it always did with OpenCV's anti-aliased fill, whose still edges flicker)."""
-        if self.objects == "auto":
-            return self.mipmap(ground) or distractors.total > 0
+    @property
+    def area_fill(self) -> bool:
+        """Whether objects cover each pixel by its area's share, as a lens integrates light ("opencv":
+        OpenCV's anti-aliased fill, whose edge pixels jump by up to 188 of 255 grey levels for a 1/32 px
+        move, so still edges flicker under wobble; kept to reproduce frames rendered before 2026-12-04)."""
         return self.objects == "area"
 
     def mipmap(self, ground: Ground) -> bool:

@@ -30,8 +30,9 @@ Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale``
    ``box_k`` times that sum's own measured noise (at least ``box_floor`` a pixel) plus
    ``gradient_gain`` times the summed range: a walker of too little contrast for any one pixel to
    pass changes several pixels alike, and their sum stands out where noise of either sign cancels
-   (:meth:`MotionDetector._box_moving`). Off in the UAV service for now: it also sees still edges that
-   flicker, as the fixed scenarios' renderer draws them (docs/results-worlds.md, session 25);
+   (:meth:`MotionDetector._box_moving`). It also sees still edges that flicker, as OpenCV's
+   anti-aliased fill draws them (the simulator's ``lens.objects = "opencv"``; docs/results-worlds.md,
+   session 25): a real lens integrates each pixel's area, as the simulator now does by default;
 4. a motion history: the pixels that moved in the last ``history_s`` seconds, warped along with the
    camera so it stays registered, so that a crowd whose members move little per frame stays one blob
    (only the box around recent motion is warped: the rest is "long ago" and stays so);
