@@ -146,7 +146,7 @@ class LocalizerConfig:
     suspect_sigmas: float = 4.0             # a 4-landmark fit this many sigmas from its prior is SUSPECT
     claim_radius_m: float = 2.5             # a UGV claims blobs this close to where it is (its size and trail)
     moving_m_s: float = 0.5                 # a UGV reported faster than this moves: its label alone excuses no claim
-    min_vehicle_blob_m2: float = 2.0        # under the pose, a UGV's own blob smaller than this (m2) excuses no claim
+    min_vehicle_blob_m2: float = 4.0        # a UGV's own blob smaller than this (m2) is a piece of it: the rest is claimed
     pose_bias_rate: float = 0.05            # how fast the pose's bias against landmark transforms is learnt
     learn_landmark_noise: bool = True       # widen the landmarks' declared noise by what the fits' residuals show
     residual_rate: float = 0.05             # ... learnt this fast
@@ -502,7 +502,10 @@ def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, Ugv
     receiver reports it moving (over ``moving_m_s``): a moving UGV's label rides on a blob of its own,
     and a label there with none is a patch of its color on the ground beside it. Any other UGV whose
     position is known (its label not seen, or seen elsewhere) claims the blobs whose box holds that
-    point or whose centre is near it.
+    point or whose centre is near it. A blob of its own smaller than ``min_vehicle_blob_m2`` is a piece
+    of the vehicle (a label on a patch of its color beside it, or a carve that left its trail apart), so
+    under a fit the UGV also claims the blobs whose centre is near its position (not those whose box
+    merely holds it: a crowd it drives through keeps its blob).
 
     ``pose_sigma_m``: None when ``ground_to_px`` is a landmark fit (exact at its own landmarks' fixes);
     under the camera's pose, a callable of (N, 2) ground points -> (N,) its 1-sigma per axis. Then the
@@ -523,20 +526,28 @@ def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, Ugv
         label_px = {}
     xy = blobs.xy_px
     own = dict(pairing.blob_of_ugv)
-    if pose_sigma_m is not None and obs.px_per_m is not None:   # a blob carved round a label: the label's patch
+    piece: set[str] = set()     # UGVs whose own blob is less than a vehicle's: a label's patch, or a piece of it
+    if obs.px_per_m is not None:
         least_px = cfg.min_vehicle_blob_m2 * obs.px_per_m ** 2
-        own = {u: j for u, j in own.items() if blobs.area_px[j] >= least_px}
+        piece = {u for u, j in own.items() if blobs.area_px[j] < least_px}
+    if pose_sigma_m is not None:    # no fit checked the labels: such a piece vouches for nothing
+        own = {u: j for u, j in own.items() if u not in piece}
+        piece = set()
     own_px = dict(zip(own, xy[list(own.values())].tolist()))
     claims = np.zeros(len(blobs), bool)
     box = blobs.xyxy_px
     for u, (px, py), reach in zip(names, where_px, reach_m.tolist()):
         r = cfg.gate_px if obs.px_per_m is None else max(cfg.gate_px, reach * obs.px_per_m)
         moving = (positions[u].speed_m_s or 0.0) > cfg.moving_m_s
-        if not (isfinite(px) and isfinite(py)) or _near(own_px.get(u), px, py, r) or (
-                not moving and _near(label_px.get(u), px, py, r)):
+        if not (isfinite(px) and isfinite(py)):
+            continue
+        near = np.sqrt((xy[:, 0] - px) ** 2 + (xy[:, 1] - py) ** 2) <= r
+        if _near(own_px.get(u), px, py, r) or (not moving and _near(label_px.get(u), px, py, r)):
+            if u in piece:
+                claims |= near
             continue
         inside = (px >= box[:, 0]) & (px <= box[:, 2]) & (py >= box[:, 1]) & (py <= box[:, 3])
-        claims |= inside | (np.sqrt((xy[:, 0] - px) ** 2 + (xy[:, 1] - py) ** 2) <= r)
+        claims |= inside | near
     return claims
 
 

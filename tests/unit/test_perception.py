@@ -33,8 +33,10 @@ def obs_of(t, pose, ugv_en: dict, crowd_en, label_px_override=None, blob_of=None
     labels.update(label_px_override or {})
     blob_px = np.vstack([project(CAM, pose, np.array([ugv_en[u] for u in names])), project(CAM, pose, np.array([crowd_en]))])
     box = np.column_stack([blob_px - 12, blob_px + 12])
-    return FrameObservation(t, Landmarks.from_dict(labels), Blobs(blob_px, box, np.full(len(blob_px), 100.0)),
-                            0.5, 1.0, 1.5, with_pose, CAM.focal_px / pose.up_m)
+    px_per_m = CAM.focal_px / pose.up_m      # a vehicle's blob 6 m2 (a moving UGV's, measured 4-9), the crowd's 20
+    area = np.r_[np.full(len(names), 6.0), 20.0] * px_per_m ** 2
+    return FrameObservation(t, Landmarks.from_dict(labels), Blobs(blob_px, box, area),
+                            0.5, 1.0, 1.5, with_pose, px_per_m)
 
 
 RING = {f"ugv{i + 1}": (12.0 * np.sin(a), 12.0 * np.cos(a)) for i, a in enumerate(np.linspace(0, 2 * np.pi, 6, endpoint=False))}
@@ -133,6 +135,42 @@ def test_fewer_than_four_landmarks_place_the_crowd_by_the_pose_with_an_honest_ra
                            {u: tracks[u] for u in three}, cfg)
     c = raw.crowds[0]
     assert 1.0 < np.hypot(c.east_m - crowd[0], c.north_m - crowd[1]) <= c.radius95_m
+
+
+def test_a_ugv_whose_own_blob_is_a_piece_claims_the_rest_of_it_but_not_a_crowd_it_drives_by():
+    # measured (real-alt60-lm6-gnss1 seed 4, 4.4 s): ugv1's label sat on a 1.6 m2 blob, the rest of the
+    # moving vehicle (6.4 m2, crowd-sized) 2.4 m beside it, and its own blob excused the claim: the rest
+    # was reported as a crowd. A blob of its own under min_vehicle_blob_m2 is a piece of the vehicle:
+    # the blobs whose centre is near the UGV are its too; a crowd whose box merely holds it is not
+    pose = CameraPose(0.0, 0.0, 60.0, yaw_deg=10.0)
+    px_per_m = CAM.focal_px / 60.0
+    tracks = {u: track_at(en) for u, en in RING.items()}
+    crowd = (2.0, 3.0)
+
+    def frame(extra_en, extra_m2, box_half_m):
+        o = obs_of(1.0, pose, RING, crowd)
+        b = o.blobs
+        area = b.area_px.copy()
+        area[0] = 1.6 * px_per_m ** 2                                    # ugv1's own blob: a piece
+        at = project(CAM, pose, np.array([extra_en]))[0]
+        half = box_half_m * px_per_m
+        blobs = Blobs(np.vstack([b.xy_px, at]), np.vstack([b.xyxy_px, np.r_[at - half, at + half]]),
+                      np.r_[area, extra_m2 * px_per_m ** 2])
+        return FrameObservation(1.0, o.landmarks, blobs, 0.5, 1.0, 1.5, None, px_per_m)
+
+    rest = frame(np.add(RING["ugv1"], (2.3, 0.6)), 6.4, 1.5)             # 2.4 m off: past the 25 px gate
+    assert 25.0 < 2.4 * px_per_m < LocalizerConfig().claim_radius_m * px_per_m
+    for m2, reported in ((4.0, [len(RING)]), (0.0, [len(RING), len(RING) + 1])):   # 0: the rule before
+        _, res = localize_step(LocalizerState(), rest, tracks, LocalizerConfig(min_vehicle_blob_m2=m2))
+        assert res.blob_of_ugv["ugv1"] == 0
+        assert sorted(c.blob_index for c in res.crowds) == reported, m2
+    # a crowd 3.5 m from ugv1 whose box holds it: still a crowd
+    by = frame(np.add(RING["ugv1"], (3.5, 0.0)), 20.0, 5.0)
+    x0, y0, x1, y1 = by.blobs.xyxy_px[-1]
+    ux, uy = by.blobs.xy_px[0]
+    assert x0 < ux < x1 and y0 < uy < y1 and 3.5 * px_per_m > LocalizerConfig().claim_radius_m * px_per_m
+    _, res = localize_step(LocalizerState(), by, tracks, LocalizerConfig())
+    assert sorted(c.blob_index for c in res.crowds) == [len(RING), len(RING) + 1]
 
 
 def test_without_landmarks_a_ugv_is_claimed_where_the_pose_puts_it_give_or_take_the_pose():
