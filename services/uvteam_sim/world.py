@@ -67,6 +67,8 @@ FALSE_BLOBS_PER_FRAME = 0.05
 STATION_BAND_M = 3.0
 STATION_LEAD_S = 1.0
 MOVING_M_S = 0.2  # frame differencing sees a UGV only when it moves
+SENSOR_UGV_BLOB_M2 = 7.0     # a moving UGV's blob as the pixel pipeline sees it (median 7.1 m2 at 1.5-3 m/s,
+                             # docs/own_blob_area.py); crowd and false blobs keep area 1 (not modelled)
 GNSS_VEL_SIGMA_M_S = 0.05
 ROUTE_BAND_M = 1.5           # on-route distractors: this close to the station ring
 PAINT_GAIN = (0.85, 1.0)     # distractor paint: brightness of a label colour (hue and saturation kept)
@@ -328,7 +330,9 @@ class SimWorld:
         rng, sc, cam = self.rng, self.sc, self.camera
         lm_px = project(cam, pose, self.ugv_label_enu())
         landmarks, xy, boxes, kinds, colors = {}, [], [], [], []
-        half = 0.5 * max(sc.ugvs.length_m, sc.ugvs.width_m) * cam.focal_px / sc.uav.altitude_agl_m
+        px_per_m = cam.focal_px / sc.uav.altitude_agl_m
+        half = 0.5 * max(sc.ugvs.length_m, sc.ugvs.width_m) * px_per_m
+        areas = []
         for i, color in enumerate(sc.ugvs.colors):
             if not self._in_image(lm_px[i]):
                 continue
@@ -341,6 +345,7 @@ class SimWorld:
                 xy.append(c)
                 boxes.append([c[0] - half, c[1] - half, c[0] + half, c[1] + half])
                 kinds.append(f"ugv:{color}")
+                areas.append(SENSOR_UGV_BLOB_M2 * px_per_m ** 2)
                 colors.append(color if color in landmarks else "")  # the label lies inside its blob
         r_px = PERSON_RADIUS_M * cam.focal_px / sc.uav.altitude_agl_m
         for k, px in enumerate(self.crowd_groups_px(pose)):
@@ -360,5 +365,6 @@ class SimWorld:
             boxes.append([c[0] - s, c[1] - s, c[0] + s, c[1] + s])
             kinds.append("false")
             colors.append("")
-        blobs = Blobs(np.array(xy, float).reshape(-1, 2), np.array(boxes, float).reshape(-1, 4), np.ones(len(xy)), tuple(colors))
+        areas += [1.0] * (len(xy) - len(areas))
+        blobs = Blobs(np.array(xy, float).reshape(-1, 2), np.array(boxes, float).reshape(-1, 4), np.array(areas), tuple(colors))
         return SensorFrame(stamp_s, Landmarks.from_dict(landmarks), blobs, tuple(kinds))
