@@ -147,11 +147,12 @@ def test_every_step_is_the_step_it_was(seed, monkeypatch):
     # changes radii only: test_localizer.py tests it); and the UGVs' claims at the fixed reach they had
     # then (under the pose the claim reaching as far as the pose is worth came later:
     # test_perception.py tests it), a label excusing a UGV's claim however fast it moves (a moving UGV's
-    # label needing a blob of its own came later: test_localizer.py tests it)
+    # label needing a blob of its own came later: test_localizer.py tests it), and a UGV's own blob however
+    # small (one under min_vehicle_blob_m2 claiming the rest of the vehicle came later: test_perception.py)
     claim = now.claim_blobs
     monkeypatch.setattr(now, "claim_blobs", lambda to_px, obs, positions, pairing, cfg, pose_sigma_m=None:
                         claim(to_px, obs, positions, pairing, cfg))
-    cfg_now = now.LocalizerConfig(**kw, learn_landmark_noise=False, moving_m_s=float("inf"))
+    cfg_now = now.LocalizerConfig(**kw, learn_landmark_noise=False, moving_m_s=float("inf"), min_vehicle_blob_m2=0.0)
     cfg_before = before.LocalizerConfig(**kw)
     s_now, s_before = now.LocalizerState(), before.LocalizerState()
     for k, obs in enumerate(frames):
