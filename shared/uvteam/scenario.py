@@ -168,7 +168,7 @@ class Lens:
     def area_fill(self) -> bool:
         """Whether objects cover each pixel by its area's share, as a lens integrates light ("opencv":
         OpenCV's anti-aliased fill, whose edge pixels jump by up to 188 of 255 grey levels for a 1/32 px
-        move, so still edges flicker under wobble; kept to reproduce frames rendered before 2026-12-04)."""
+        move, so still edges flicker under wobble; kept to reproduce the fixed set's frames as drawn until 2026-12-04)."""
         return self.objects == "area"
 
     def mipmap(self, ground: Ground) -> bool:
