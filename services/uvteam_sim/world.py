@@ -347,7 +347,7 @@ class SimWorld:
                 kinds.append(f"ugv:{color}")
                 areas.append(SENSOR_UGV_BLOB_M2 * px_per_m ** 2)
                 colors.append(color if color in landmarks else "")  # the label lies inside its blob
-        r_px = PERSON_RADIUS_M * cam.focal_px / sc.uav.altitude_agl_m
+        r_px = PERSON_RADIUS_M * px_per_m
         for k, px in enumerate(self.crowd_groups_px(pose)):
             vis = self._in_image(px)
             if vis.sum() < max(2, 0.5 * len(px)) or rng.random() < MISS_PROB:

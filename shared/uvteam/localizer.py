@@ -541,10 +541,12 @@ def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, Ugv
         moving = (positions[u].speed_m_s or 0.0) > cfg.moving_m_s
         if not (isfinite(px) and isfinite(py)):
             continue
+        excused = _near(own_px.get(u), px, py, r) or (not moving and _near(label_px.get(u), px, py, r))
+        if excused and u not in piece:
+            continue
         near = np.sqrt((xy[:, 0] - px) ** 2 + (xy[:, 1] - py) ** 2) <= r
-        if _near(own_px.get(u), px, py, r) or (not moving and _near(label_px.get(u), px, py, r)):
-            if u in piece:
-                claims |= near
+        if excused:     # a piece of the vehicle: the rest of it, not a crowd whose box holds it
+            claims |= near
             continue
         inside = (px >= box[:, 0]) & (px <= box[:, 2]) & (py >= box[:, 1]) & (py <= box[:, 3])
         claims |= inside | near
