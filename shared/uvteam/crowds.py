@@ -27,7 +27,11 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    ``max_rel_speed_m_s``: the slope of a straight line fitted to the distance between them in the
    frames of the last ``window_s`` in which both were seen, ``significance`` standard errors from
    zero (a part's centre jitters by up to a metre as walkers cross between parts, so a slope over
-   many frames, not two positions); parts not seen apart over ``min_span_s`` are one crowd;
+   many frames, not two positions); parts not seen apart over ``min_span_s`` are one crowd. Parts that were
+   one crowd in the last frame both were parts in stay one while such a drift has not yet latched them
+   two (step 3): a crowd's blob cut in two drifts so for a few frames as the cut opens or heals (tuning
+   seed 102 of real-alt60-lm6-winding: its two parts reported as two crowds, 2.5-3.5 m off, for 7 frames),
+   while two crowds that were two stay two meanwhile;
 3. what is learnt sticks while both tracks live (:class:`GroupingState`): parts once ``apart_m`` or more
    apart, or moving apart or together in ``apart_frames`` frames in a row, stay two crowds. Two crowds
    that close in slowly, or part again after walking as one blob, are then not joined by a frame in
@@ -46,7 +50,8 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    track (within ``near_m``), it is the crowd coming out again: two crowds at once, with no wait for a
    drift to show (``min_span_s`` plus ``apart_frames`` frames, in which the two were reported as one);
 5. only parts seen ``confirm_hits`` times take part (a blob of one frame neither is a crowd nor pulls
-   one), and parts seen fewer times that lie in the footprint of a crowd seen whole in the last frame
+   one), and parts seen fewer times that lie in the footprint of a crowd seen in the last frame (whole,
+   or partly, step 7: then up to the moving pixels it usually has)
    (:func:`_young_parts`): a crowd's blob cut in two leaves one part to a track of the crowd's and the
    other to a new one, and that part is the crowd's from its first frame (a young part joins a crowd;
    alone it is none); a crowd is the area-weighted mean of its parts (the detector's moving pixels),
@@ -65,7 +70,10 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    does not walk on straight because it is no longer seen. It ends when a crowd is reported within
    ``near_m`` of where it should be (seen again, or walked into another crowd's blob) or after
    ``coast_s``; a new track found there keeps its id (a crowd found again by a new track is held only
-   once that track is ``coast_min_seen_s`` old). A crowd reported near it does not end it when it is
+   once that track is ``coast_min_seen_s`` old), also while the crowd's own track, unseen, is still kept,
+   and is partly seen (step 7) if it has fewer moving pixels than the crowd usually had (the desert
+   world's seed 4 at 37.0 s: half its walkers, seen 4.2 m off on a new track, had been a new crowd with a
+   fresh 1.3 m radius). A crowd reported near it does not end it when it is
    the crowd's own blob under another track: one younger than the crowd's own, which the crowd's own
    was seen again after and never in one frame with (a blob now and then centred past the tracker's
    gate by what joins it or hides part of it), and which holds no crowd of step 4 (a blob that took in
@@ -164,16 +172,17 @@ class GroupingState:
     last_seen: Mapping[int, "LastSeen"] = field(default_factory=dict)  # per reported crowd id, the crowd as last seen
     alias: Mapping[int, int] = field(default_factory=dict)  # track id -> the id of the crowd it found again
     drifted: frozenset[Pair] = frozenset()   # the pairs in ``apart`` for their drift alone (they may rejoin)
+    joined: frozenset[Pair] = frozenset()    # pairs of tracks one crowd in the last frame both were parts in
 
 
 def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig = GroupingConfig(),
                  boxes_en: np.ndarray | None = None, areas: np.ndarray | None = None,
                  apart: frozenset[Pair] = frozenset(), streak: Mapping[Pair, int] | None = None,
-                 drifted: frozenset[Pair] = frozenset()
+                 drifted: frozenset[Pair] = frozenset(), joined: frozenset[Pair] = frozenset()
                  ) -> tuple[list[int], frozenset[Pair], dict[Pair, int], frozenset[Pair]]:
     """A group label per track (this frame's estimates): tracks with one label are one crowd.
     ``boxes_en`` (n, 4): each estimate's footprint as east/north min/max; ``areas`` (n,): its moving pixels;
-    ``apart``, ``streak``, ``drifted``: what earlier frames learnt (:class:`GroupingState`). Returns the
+    ``apart``, ``streak``, ``drifted``, ``joined``: what earlier frames learnt (:class:`GroupingState`). Returns the
     labels and the pairs known apart, the streaks and the pairs apart for their drift after this frame."""
     n = len(tracks)
     parent = list(range(n))
@@ -223,6 +232,8 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
                 apart.add(pair)
                 drifted.add(pair)
                 del new_streak[pair]
+            elif pair in joined:       # one crowd the last frame: one until the drift latches (step 2)
+                parent[root(j)] = root(i)
         else:                          # not significant, or NaN (not seen apart long enough): one crowd
             parent[root(j)] = root(i)
     return [root(i) for i in range(n)], frozenset(apart), new_streak, frozenset(drifted & apart)
@@ -420,7 +431,8 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
     taken = {r.crowd_id for r in out}
     for cid, ls in list(last.items()):    # found again: a new track where the crowd should be
         d = np.hypot(*(seen - ls.walk_at(stamp_s, cfg)[0]).T) if len(seen) else np.empty(0)
-        if cid in taken or cid in live or not len(d) or d.min() >= cfg.near_m:
+        # its own track, if still tracked, missed this frame (a track seen this frame is the crowd)
+        if cid in taken or (cid in live and live[cid].misses == 0) or not len(d) or d.min() >= cfg.near_m:
             continue
         k = int(np.argmin(d))
         r = out[k]
@@ -535,7 +547,8 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     boxes_en = boxes_all[parts].reshape(-1, 4)
     areas = np.array([estimates[k].area_px for k in parts], float)
     labels, apart, streak, drifted = crowd_groups([trk[k] for k in parts], stamp_s, cfg, boxes_en, areas,
-                                                  frozenset(apart), state.streak, frozenset(drifted))
+                                                  frozenset(apart), state.streak, frozenset(drifted), state.joined)
+    joined = _joined_after(state.joined, [trk[k].track_id for k in parts], labels, live)
     for k, g in zip(parts, labels):
         groups.setdefault(g, []).append(k)
     out = []
@@ -549,7 +562,23 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     out.sort(key=lambda c: (-c.track.hits, c.crowd_id))
     apart = frozenset(p for p in apart if p[0] in live and p[1] in live)   # forgotten with either track
     holds = {x: v for x, v in holds.items() if v and x in live}
-    return GroupingState(tracker, apart, streak, holds, last_seen, alias, drifted & apart), out
+    return GroupingState(tracker, apart, streak, holds, last_seen, alias, drifted & apart, joined), out
+
+
+def _joined_after(joined: frozenset[Pair], ids: list[int], labels: list[int], live: Mapping[int, CrowdTrack]
+                  ) -> frozenset[Pair]:
+    """:attr:`GroupingState.joined` after this frame: each pair of this frame's parts (track ``ids``, group
+    ``labels``) is in it if they were one crowd; pairs not both parts this frame keep what they were, until
+    either track is forgotten."""
+    out = set(joined)
+    for a in range(len(ids)):
+        for b in range(a + 1, len(ids)):
+            pair = (min(ids[a], ids[b]), max(ids[a], ids[b]))
+            if labels[a] == labels[b]:
+                out.add(pair)
+            else:
+                out.discard(pair)
+    return frozenset(p for p in out if p[0] in live and p[1] in live)
 
 
 def _in_boxes(points_en: np.ndarray, boxes_en: np.ndarray, margin_m: float = 0.0) -> np.ndarray:
@@ -563,15 +592,16 @@ def _in_boxes(points_en: np.ndarray, boxes_en: np.ndarray, margin_m: float = 0.0
 def _young_parts(state: GroupingState, estimates: tuple[CrowdEstimate, ...], confirmed: list[int],
                  stamp_s: float, holds: Mapping, cfg: GroupingConfig) -> list[int]:
     """Step 5's exception: the estimates of tracks seen fewer than ``confirm_hits`` times whose centre
-    lies in the footprint of a crowd seen whole in the last frame that crowds were seen in (moved on by
+    lies in the footprint of a crowd seen in the last frame that crowds were seen in (moved on by
     its track's velocity), unless that crowd's track holds crowds of step 4, and only as much as the
-    crowd's confirmed parts there miss of its moving pixels then (they hold under ``seen_whole`` of
-    them; with the young parts, biggest first, no more than that share over). A crowd's blob cut in two
+    crowd's confirmed parts there miss of its moving pixels then, or of those it usually has if it was
+    partly seen (they hold under ``seen_whole`` of them; with the young parts, biggest first, no more
+    than that share over). A crowd's blob cut in two
     gives its old track one part and a new track the other: that part is the crowd's from its first
     frame, not a blob to be confirmed while the crowd is reported as the other part alone; a stray blob
     beside a crowd seen whole still joins nothing until confirmed."""
     seen = [ls for ls in state.last_seen.values() if ls.seen_s < stamp_s and ls.crowd.unseen_s == 0.0
-            and not ls.crowd.partly_seen and ls.crowd.track.track_id not in holds]
+            and ls.crowd.track.track_id not in holds]
     if not seen:
         return []
     last_s = max(ls.seen_s for ls in seen)
@@ -584,6 +614,8 @@ def _young_parts(state: GroupingState, estimates: tuple[CrowdEstimate, ...], con
         fp = ls.crowd.estimate.footprint_en_m + (tr.v_east_m_s * dt, tr.v_north_m_s * dt)
         inside = np.flatnonzero(_in_boxes(centres, np.hstack([fp.min(0), fp.max(0)]))[0]).tolist()
         whole = ls.crowd.estimate.area_px
+        if ls.crowd.partly_seen:   # what it usually has: its own part plus the parts it lost
+            whole = max(whole, float(np.median([a for _, a in ls.areas])))
         # only what the crowd's confirmed parts miss of it: a blob beside a crowd seen whole is no part
         have = sum(estimates[k].area_px for k in inside if k in confirmed)
         for k in sorted((k for k in inside if k not in confirmed and k not in young),

@@ -559,3 +559,67 @@ def test_a_stray_blob_beside_a_crowd_seen_whole_joins_nothing():
     (r,) = out
     assert r.estimate.area_px == pytest.approx(40.0)
     assert (r.estimate.east_m, r.estimate.north_m) == pytest.approx((1.4 * 3.0, 0.0), abs=1e-6)
+
+
+# --- parts of one crowd through a cut, a partial spell and a re-acquisition ------------------------------
+
+def test_parts_of_one_crowd_stay_one_while_their_drift_has_not_latched():
+    # one crowd, seen whole (one blob) for 2 s, is seen as two parts that stretch apart at 1 m/s for 1.5 s
+    # (one crowd while too young to tell; a significant drift from 1 s on, in fewer than apart_frames
+    # frames), then as one blob again: one crowd in every frame, not two while the drift builds up
+    def parts(t):
+        x = 1.4 * t
+        if 2.0 <= t < 3.5:
+            return [(x, -2.0 - 0.5 * (t - 2.0), 20.0, 2.0), (x, 2.0 + 0.5 * (t - 2.0), 20.0, 2.0)]
+        return [(x, 0.0, 40.0, 4.0)]
+    run(parts, 4.5, jitter_m=0.0)
+    assert set(run.counts[3:]) == {1}
+
+
+def test_two_crowds_that_were_two_are_two_while_their_drift_latches():
+    # two crowds 16 m apart (two: past near_m) walk north and close in at 1.5 m/s: within near_m from 2.7 s,
+    # their drift latches 10 frames later; two in every frame meanwhile, not one
+    run(lambda t: [(0.0, 1.2 * t, 20.0), (16.0 - 1.5 * t, 1.2 * t, 20.0)], 4.5, jitter_m=0.0)
+    assert set(run.counts[3:]) == {2}
+    assert run.state.apart == frozenset({(1, 2)}) and run.state.joined == frozenset()
+
+
+def test_a_young_part_joins_a_crowd_partly_seen_the_frame_before():
+    # walking east, seen whole (40 px, a 12 m box) for 3 s, then 0.3 s with 60 % of its pixels (partly
+    # seen), then cut in two: the part its track keeps (20 px) and one 4 m north on a new, young track
+    # (20 px), inside its footprint. The crowd is both parts from that frame, not the first alone
+    def parts(t):
+        f, x = round(t * 10), 1.4 * t
+        if f < 30:
+            return [(x, 0.0, 40.0, 6.0)]
+        if f < 33:
+            return [(x, 0.0, 24.0, 6.0)]
+        return [(x, 0.0, 20.0, 3.0), (x, 4.0, 20.0, 3.0)]
+    out = run(parts, 3.4, jitter_m=0.0)
+    (r,) = out
+    assert r.estimate.area_px == pytest.approx(40.0)
+    assert r.estimate.north_m == pytest.approx(2.0, abs=1e-6)
+
+
+def test_a_new_track_where_a_held_crowd_should_be_takes_its_id_and_its_usual_size():
+    # walking east at 1.4 m/s seen whole (40 px) for 4 s, unseen for 0.5 s (its track still kept), then seen
+    # again 5 m north of where it is (past the tracker's gate: a new track) with half its pixels: the new
+    # track is the crowd found again (its id), partly seen, placed by its walk
+    def parts(t):
+        f, x = round(t * 10), 1.4 * t
+        if f < 40:
+            return [(x, 0.0, 40.0, 4.0)]
+        if f < 45:
+            return []
+        return [(x, 5.0, 20.0, 2.0)]
+    state, first = GroupingState(), None
+    for f in range(50):
+        t = f / 10
+        state, out = report_crowds(state, tuple(estimate(e, n, a, half=h) for e, n, a, h in parts(t)), T0 + t)
+        if f == 39:
+            (first,) = out
+    (r,) = out
+    assert r.crowd_id == first.crowd_id and r.track.track_id != first.track.track_id
+    assert r.unseen_s == 0.0 and r.partly_seen
+    assert r.estimate.north_m == pytest.approx(0.0, abs=0.05) and r.estimate.east_m == pytest.approx(1.4 * 4.9, abs=0.1)
+    assert r.estimate.radius95_m > 1.0
