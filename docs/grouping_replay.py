@@ -1,0 +1,108 @@
+"""The crowd grouping (:func:`uvteam.crowds.report_crowds`) open loop: record what the localizer hands it
+in each run, then replay those recordings through it and score them, in seconds instead of a run's
+minute. A diagnostic for docs/results-worlds.md (session 27); not part of the product.
+
+    record: .venv/bin/python docs/grouping_replay.py record OUT_DIR SCENARIO.toml SEED...
+    replay: .venv/bin/python docs/grouping_replay.py replay OUT_DIR [GroupingConfig field=value ...]
+
+``record`` runs each seed as ``uvteam experiment --detector pixels`` does (:class:`SimTeam`, the same
+scores) and keeps, per frame, the estimates the localizer groups, the truth and the Crowds message's
+header (``OUT_DIR/<scenario>__seed<N>.pkl``). ``replay`` feeds every recording in ``OUT_DIR`` through
+``report_crowds`` with the code on the path (and the config's fields set as given), builds the Crowds
+messages as the localizer node does, scores them with :class:`uvteam.scoring.BusScorer`, and prints
+the figures per scenario and seed. Open loop: the UGVs, which plan from the crowds, drove as they did
+in the recorded run. Replayed with the code that recorded it, every error and radius is the run's.
+"""
+
+import glob
+import os
+import pickle
+import sys
+from dataclasses import replace
+
+import numpy as np
+
+import uvteam.nodes.localizer as node_module
+from uvteam.crowds import GroupingConfig, GroupingState, report_crowds
+from uvteam.io.files import load_scenario
+from uvteam.messages import Crowd
+from uvteam.scoring import BusScorer, Scoreboard, summarize
+from uvteam_sim.experiment import SimTeam
+
+
+def record(out_dir: str, path: str, seeds: list[int]) -> None:
+    import cv2  # noqa: PLC0415
+
+    cv2.setNumThreads(1)
+    sc = load_scenario(path)
+    grouping = node_module.report_crowds
+    for seed in seeds:
+        team, events = SimTeam(sc, seed, "pixels"), []
+
+        def grouped(state, estimates, stamp_s, cfg):
+            events.append(("frame", estimates, stamp_s))
+            return grouping(state, estimates, stamp_s, cfg)
+
+        on_truth, on_crowds = team.scorer.on_truth, team.scorer.on_crowds
+        taps = {on_truth: lambda k, t: (events.append(("truth", k, t)), on_truth(k, t)),
+                on_crowds: lambda k, c: (events.append(("crowds", k, replace(c, crowds=()))), on_crowds(k, c))}
+        subs = team.hub._hub["subs"]
+        subs[:] = [(e, cls, taps.get(h, h), owner) for e, cls, h, owner in subs]
+        node_module.report_crowds = grouped
+        try:
+            board = team.run()
+        finally:
+            node_module.report_crowds = grouping
+        with open(os.path.join(out_dir, f"{sc.name}__seed{seed}.pkl"), "wb") as f:
+            pickle.dump({"events": events, "frame": team.loc.frame, "scored_in": team.sim.world.frame,
+                         "confirm_hits": team.loc.grouping_cfg.confirm_hits}, f)
+        e = np.asarray(board.errors_m)
+        print(f"{sc.name} seed {seed} recorded: mean {e.mean():.3f} max {e.max():.2f} false {board.false_crowds}",
+              flush=True)
+
+
+def replay(path: str, fields: dict) -> Scoreboard:
+    with open(path, "rb") as f:
+        rec = pickle.load(f)
+    cfg = GroupingConfig(**{"confirm_hits": rec["confirm_hits"], **fields})
+    frame, scorer, state, reported = rec["frame"], BusScorer(rec["scored_in"], Scoreboard()), GroupingState(), []
+    for kind, key_or_estimates, msg_or_stamp in rec["events"]:
+        if kind == "frame":
+            state, reported = report_crowds(state, key_or_estimates, msg_or_stamp, cfg)
+        elif kind == "truth":
+            scorer.on_truth(key_or_estimates, msg_or_stamp)
+        else:     # the Crowds message as the localizer node builds it (LocalizerNode._crowd_message)
+            crowds = []
+            for r in reported:
+                c, tr = r.estimate, r.track
+                pts = np.vstack([[c.east_m, c.north_m], c.footprint_en_m])
+                lat, lon = frame.ground_to_wgs84(pts[:, 0], pts[:, 1])
+                crowds.append(Crowd(r.crowd_id, float(lat[0]), float(lon[0]), tuple(map(float, lat[1:])),
+                                    tuple(map(float, lon[1:])), tr.v_east_m_s, tr.v_north_m_s, c.radius95_m,
+                                    c.quality.value, c.n_outliers, r.unseen_s))
+            scorer.on_crowds(key_or_estimates, replace(msg_or_stamp, crowds=tuple(crowds)))
+    return scorer.finish()
+
+
+def main(argv: list[str]) -> None:
+    if argv[0] == "record":
+        record(argv[1], argv[2], [int(s) for s in argv[3:]])
+        return
+    fields = {k: float(v) for k, v in (a.split("=", 1) for a in argv[2:])}
+    runs: dict[str, list[tuple[int, Scoreboard]]] = {}
+    for p in sorted(glob.glob(os.path.join(argv[1], "*.pkl"))):
+        scenario, seed = os.path.basename(p)[:-4].rsplit("__seed", 1)
+        runs.setdefault(scenario, []).append((int(seed), replay(p, fields)))
+    for scenario, boards in sorted(runs.items()):
+        s = summarize([b for _, b in boards])
+        print(f"{scenario}: mean {s['mean_m']:.3f} m, p95 {s['p95_m']:.2f}, max {s['max_m']:.2f}, recall "
+              f"{s['recall']:.3f}, false crowds {s['false_crowds']}, UGV as crowd {s['ugv_as_crowd']}, "
+              f"in 95 % radius {s['coverage95']:.3f}")
+        for seed, b in sorted(boards, key=lambda x: x[0]):
+            e, r = np.asarray(b.errors_m), np.asarray(b.radius95_m)
+            print(f"    seed {seed}: mean {e.mean():.3f} max {e.max():.2f} false {b.false_crowds} "
+                  f"in radius {np.mean(e <= r):.3f}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
