@@ -596,10 +596,10 @@ def _young_parts(state: GroupingState, estimates: tuple[CrowdEstimate, ...], con
     its track's velocity), unless that crowd's track holds crowds of step 4, and only as much as the
     crowd's confirmed parts there miss of its moving pixels then, or of those it usually has if it was
     partly seen (they hold under ``seen_whole`` of them; with the young parts, biggest first, no more
-    than that share over). A crowd's blob cut in two
-    gives its old track one part and a new track the other: that part is the crowd's from its first
-    frame, not a blob to be confirmed while the crowd is reported as the other part alone; a stray blob
-    beside a crowd seen whole still joins nothing until confirmed."""
+    than that share over). A crowd's blob cut in two gives its old track one part and a new track the
+    other: that part is the crowd's from its first frame, not a blob to be confirmed while the crowd is
+    reported as the other part alone; a stray blob beside a crowd seen whole still joins nothing until
+    confirmed."""
     seen = [ls for ls in state.last_seen.values() if ls.seen_s < stamp_s and ls.crowd.unseen_s == 0.0
             and ls.crowd.track.track_id not in holds]
     if not seen:
