@@ -357,6 +357,7 @@ class SimWorld:
             xy.append(c)
             boxes.append([p[:, 0].min() - r_px, p[:, 1].min() - r_px, p[:, 0].max() + r_px, p[:, 1].max() + r_px])
             kinds.append(f"crowd:{k}")
+            areas.append(1.0)
             colors.append("")
         for _ in range(rng.poisson(FALSE_BLOBS_PER_FRAME)):
             c = rng.uniform([0, 0], [cam.width_px, cam.height_px])
@@ -364,7 +365,7 @@ class SimWorld:
             xy.append(c)
             boxes.append([c[0] - s, c[1] - s, c[0] + s, c[1] + s])
             kinds.append("false")
+            areas.append(1.0)
             colors.append("")
-        areas += [1.0] * (len(xy) - len(areas))
         blobs = Blobs(np.array(xy, float).reshape(-1, 2), np.array(boxes, float).reshape(-1, 4), np.array(areas), tuple(colors))
         return SensorFrame(stamp_s, Landmarks.from_dict(landmarks), blobs, tuple(kinds))
