@@ -409,6 +409,10 @@ class LastSeen:
     r95_m: float                       # ... and the 95 % radius it is held by from there
     areas: tuple[tuple[float, float], ...] = ()   # (stamp s, moving pixels) over the last window_s
 
+    def usual_px(self) -> float:
+        """The moving pixels it usually has: their median over ``areas`` (step 7)."""
+        return float(np.median([a for _, a in self.areas]))
+
     def walk_at(self, stamp_s: float, cfg: GroupingConfig) -> tuple[np.ndarray, float]:
         """Where its walk takes it at ``stamp_s`` (east, north m), and the 95 % radius that holds it."""
         dt = stamp_s - self.walk_s
@@ -507,7 +511,7 @@ def _partly_seen(r: ReportedCrowd, ls: LastSeen | None, stamp_s: float, cfg: Gro
     if ls is None or not ls.seen_s < stamp_s or len(ls.areas) < cfg.scatter_min_points:
         return r
     c = r.estimate
-    usual = float(np.median([a for _, a in ls.areas]))
+    usual = ls.usual_px()
     share = (c.area_px / usual - cfg.seen_none) / (cfg.seen_whole - cfg.seen_none) if usual > 0 else 1.0
     if not share < 1.0:
         return r
@@ -615,7 +619,7 @@ def _young_parts(state: GroupingState, estimates: tuple[CrowdEstimate, ...], con
         inside = np.flatnonzero(_in_boxes(centres, np.hstack([fp.min(0), fp.max(0)]))[0]).tolist()
         whole = ls.crowd.estimate.area_px
         if ls.crowd.partly_seen:   # what it usually has: its own part plus the parts it lost
-            whole = max(whole, float(np.median([a for _, a in ls.areas])))
+            whole = max(whole, ls.usual_px())
         # only what the crowd's confirmed parts miss of it: a blob beside a crowd seen whole is no part
         have = sum(estimates[k].area_px for k in inside if k in confirmed)
         for k in sorted((k for k in inside if k not in confirmed and k not in young),
