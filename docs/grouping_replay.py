@@ -25,7 +25,6 @@ import numpy as np
 import uvteam.nodes.localizer as node_module
 from uvteam.crowds import GroupingConfig, GroupingState, report_crowds
 from uvteam.io.files import load_scenario
-from uvteam.messages import Crowd
 from uvteam.scoring import BusScorer, Scoreboard, summarize
 from uvteam_sim.experiment import SimTeam
 
@@ -71,16 +70,9 @@ def replay(path: str, fields: dict) -> Scoreboard:
             state, reported = report_crowds(state, key_or_estimates, msg_or_stamp, cfg)
         elif kind == "truth":
             scorer.on_truth(key_or_estimates, msg_or_stamp)
-        else:     # the Crowds message as the localizer node builds it (LocalizerNode._crowd_message)
-            crowds = []
-            for r in reported:
-                c, tr = r.estimate, r.track
-                pts = np.vstack([[c.east_m, c.north_m], c.footprint_en_m])
-                lat, lon = frame.ground_to_wgs84(pts[:, 0], pts[:, 1])
-                crowds.append(Crowd(r.crowd_id, float(lat[0]), float(lon[0]), tuple(map(float, lat[1:])),
-                                    tuple(map(float, lon[1:])), tr.v_east_m_s, tr.v_north_m_s, c.radius95_m,
-                                    c.quality.value, c.n_outliers, r.unseen_s))
-            scorer.on_crowds(key_or_estimates, replace(msg_or_stamp, crowds=tuple(crowds)))
+        else:     # the Crowds message as the localizer node builds it
+            scorer.on_crowds(key_or_estimates, replace(msg_or_stamp, crowds=tuple(
+                node_module.crowd_message(frame, r) for r in reported)))
     return scorer.finish()
 
 

@@ -41,7 +41,7 @@ from ..pose import pose_prior
 from ..sync import LatestSlot, StopFlag
 from . import Counts, sender_ok
 
-__all__ = ["LocalizerNode", "refuse_fix", "localizer_config"]
+__all__ = ["LocalizerNode", "crowd_message", "refuse_fix", "localizer_config"]
 
 log = logging.getLogger("uvteam.localizer")
 FIX_HISTORY = 64
@@ -83,6 +83,16 @@ def refuse_fix(fix: Fix, newest: Fix | None, now_s: float, lc: LocalizerServiceC
         if _jumped(newest, fix, frame, max_speed_m_s):
             return "jump"
     return None
+
+
+def crowd_message(frame: LocalFrame, r: ReportedCrowd) -> Crowd:
+    """A reported crowd as the Crowds message carries it: WGS84 at the message boundary, the centre and
+    the footprint's corners in one conversion."""
+    c, tr = r.estimate, r.track
+    pts = np.vstack([[c.east_m, c.north_m], c.footprint_en_m])
+    lat, lon = frame.ground_to_wgs84(pts[:, 0], pts[:, 1])
+    return Crowd(r.crowd_id, float(lat[0]), float(lon[0]), tuple(map(float, lat[1:])), tuple(map(float, lon[1:])),
+                 tr.v_east_m_s, tr.v_north_m_s, c.radius95_m, c.quality.value, c.n_outliers, r.unseen_s)
 
 
 class LocalizerNode:
@@ -222,21 +232,13 @@ class LocalizerNode:
         # the longest-seen crowd first: a UGV that follows one crowd follows that one
         self.grouping, reported = report_crowds(self.grouping, res.crowds, det.stamp_s, self.grouping_cfg)
         msg = Crowds(self.cfg.id, det.vehicle, det.stamp_s, res.quality.value, res.landmarks_used,
-                     res.outlier_landmarks, tuple(self._crowd_message(r) for r in reported))
+                     res.outlier_landmarks, tuple(crowd_message(self.frame, r) for r in reported))
         self.step_us.append((time.perf_counter() - t0) * 1e6)
         self.last_quality = res.quality.value
         self.counts.add("frames")
         self.bus.publish(self.out_key, msg)
         self.counts.add("crowds_published")
         return msg
-
-    def _crowd_message(self, r: ReportedCrowd) -> Crowd:
-        """WGS84 at the message boundary: the centre and the footprint's corners in one conversion."""
-        c, tr = r.estimate, r.track
-        pts = np.vstack([[c.east_m, c.north_m], c.footprint_en_m])
-        lat, lon = self.frame.ground_to_wgs84(pts[:, 0], pts[:, 1])
-        return Crowd(r.crowd_id, float(lat[0]), float(lon[0]), tuple(map(float, lat[1:])), tuple(map(float, lon[1:])),
-                     tr.v_east_m_s, tr.v_north_m_s, c.radius95_m, c.quality.value, c.n_outliers, r.unseen_s)
 
     def step(self, timeout_s: float) -> None:
         det = self.frames.take(timeout_s)
