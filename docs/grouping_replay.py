@@ -89,11 +89,11 @@ def main(argv: list[str]) -> None:
         s = summarize([b for _, b in boards])
         print(f"{scenario}: mean {s['mean_m']:.3f} m, p95 {s['p95_m']:.2f}, max {s['max_m']:.2f}, recall "
               f"{s['recall']:.3f}, false crowds {s['false_crowds']}, UGV as crowd {s['ugv_as_crowd']}, "
-              f"in 95 % radius {s['coverage95']:.3f}")
+              f"in 95 % radius {s['coverage95']:.3f}, id changes {s['id_changes']}")
         for seed, b in sorted(boards, key=lambda x: x[0]):
             e, r = np.asarray(b.errors_m), np.asarray(b.radius95_m)
             print(f"    seed {seed}: mean {e.mean():.3f} max {e.max():.2f} false {b.false_crowds} "
-                  f"in radius {np.mean(e <= r):.3f}")
+                  f"in radius {np.mean(e <= r):.3f} id changes {b.id_changes}")
 
 
 if __name__ == "__main__":

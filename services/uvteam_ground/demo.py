@@ -377,7 +377,8 @@ def print_summary(team: Team, s: dict, codes: dict, out=sys.stdout) -> None:
                   ("median / p95 / max", f"{f(s['median_m'])} / {f(s['p95_m'])} / {f(s['max_m'])} m"),
                   ("recall after 1 s", f(s["recall"])), ("false crowds (frames)", str(s["false_crowds"])),
                   ("UGV reported as a crowd", str(s["ugv_as_crowd"])),
-                  ("inside the 95 % radius", f(s["coverage95"]))]), file=out)
+                  ("inside the 95 % radius", f(s["coverage95"])),
+                  ("crowd id changes", str(s["id_changes"]))]), file=out)
     print("\nservices:", file=out)
     print(f"  {'vehicle':<10} {'exit':>5} {'rejected':>9}  metrics", file=out)
     for v in [team.localizer, team.uav, *team.ugvs]:

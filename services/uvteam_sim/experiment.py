@@ -172,14 +172,14 @@ def _progress(done: int, total: int, label: str) -> None:
 
 def table_markdown(rows: list[tuple[Scenario, str, dict]]) -> str:
     lines = ["| scenario | variant | frames scored | mean m | median m | p95 m | max m | paper mean m | recall | "
-             "of them predicted | false crowds | UGV as crowd | in 95% radius |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "of them predicted | false crowds | UGV as crowd | in 95% radius | id changes |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for sc, variant, s in rows:
         paper = "-" if math.isnan(sc.paper_mean_error_m) else f"{sc.paper_mean_error_m:.2f}"
         lines.append(f"| {sc.name} | {variant} | {s['n']} | {s['mean_m']:.3f} | {s['median_m']:.3f} | {s['p95_m']:.3f} | "
                      f"{s['max_m']:.3f} | {paper} | {s['recall']:.3f} | {s['predicted']} | {s['false_crowds']} | "
                      f"{s['ugv_as_crowd']} | "
-                     f"{s['coverage95']:.3f} |")
+                     f"{s['coverage95']:.3f} | {s['id_changes']} |")
     return "\n".join(lines)
 
 

@@ -4,7 +4,10 @@ Per frame in which crowds are present: reports are matched to true crowds by Hun
 ground distance with a ``gate_m`` (10 m) gate; a match's error is that distance; unmatched reports are
 false crowds (and "UGV as crowd" when a true UGV is within ``ugv_m``, 2 m), unmatched true crowds are
 misses. Mingling crowds come already joined in the truth (the simulator scores them as one). Recall
-counts (frame, true crowd) pairs from ``recall_after_s`` (1 s) after the first frame on.
+counts (frame, true crowd) pairs from ``recall_after_s`` (1 s) after the first frame on. An id change
+is a true crowd matched to a report whose crowd id differs from that of the report it was last matched
+to (the true crowds known by their place in the truth while their number holds; a change of number,
+crowds mingling or parting, starts afresh): what the team sees as one crowd becoming another.
 
 :class:`Scoreboard` keeps one run's scores; :class:`BusScorer` pairs the ``truth`` and ``crowds``
 messages of a run by their frame stamps and feeds a scoreboard, so the experiment (in-memory bus), the
@@ -76,8 +79,11 @@ class Scoreboard:
     frames: int = 0
     frame_log: list = field(default_factory=list)    # per frame: (t, true crowds, matched, reported)
     false_log: list = field(default_factory=list)    # per false crowd: (t, east m, north m, distance to nearest UGV m)
+    id_changes: int = 0                              # true crowds matched to a report of another id than last time
+    last_ids: list = field(default_factory=list)     # per true crowd: the id it was last matched to (None: never)
 
-    def add(self, stamp_s: float, truth_en, reported_en, radius95_m, quality, ugv_en=None, unseen_s=None) -> FrameScore:
+    def add(self, stamp_s: float, truth_en, reported_en, radius95_m, quality, ugv_en=None, unseen_s=None,
+            crowd_ids=None) -> FrameScore:
         if self.start_s is None:
             self.start_s = stamp_s
         t = stamp_s - self.start_s
@@ -90,11 +96,17 @@ class Scoreboard:
             self.radius95_m.append(float(radius95_m[r]))
             self.quality.append(quality[r])
             self.unseen_s.append(0.0 if unseen_s is None else float(unseen_s[r]))
+        n_truth = len(fs.matches) + len(fs.missed)
+        if crowd_ids is not None:
+            if len(self.last_ids) != n_truth:
+                self.last_ids = [None] * n_truth
+            for r, k, _ in fs.matches:
+                self.id_changes += self.last_ids[k] is not None and self.last_ids[k] != crowd_ids[r]
+                self.last_ids[k] = int(crowd_ids[r])
         for r, dist in zip(fs.false, fs.ugv_distance_m):
             self.false_crowds += 1
             self.ugv_as_crowd += int(dist < UGV_AS_CROWD_M)
             self.false_log.append((t, float(rep[r, 0]), float(rep[r, 1]), dist))
-        n_truth = len(fs.matches) + len(fs.missed)
         self.frame_log.append((t, n_truth, len(fs.matches), len(rep)))
         if t >= RECALL_AFTER_S - 1e-9:
             self.truth_frames += n_truth
@@ -119,6 +131,7 @@ def summarize(boards: list[Scoreboard]) -> dict:
         "ugv_as_crowd": sum(b.ugv_as_crowd for b in boards),
         "frames": sum(b.frames for b in boards),
         "coverage95": float(np.mean(e <= r95)) if len(e) else math.nan,
+        "id_changes": sum(b.id_changes for b in boards),
     }
 
 
@@ -168,7 +181,7 @@ class BusScorer:
                             self._en([x.lat_deg for x in crowds], [x.lon_deg for x in crowds]),
                             [x.radius95_m for x in crowds], [x.quality for x in crowds],
                             self._en([u.lat_deg for u in t.ugvs], [u.lon_deg for u in t.ugvs]),
-                            [x.unseen_s for x in crowds])
+                            [x.unseen_s for x in crowds], [x.crowd_id for x in crowds])
         if c is not None:
             self.last = (t, c, fs)
 

@@ -36,3 +36,21 @@ def test_predicted_frames_are_scored_and_counted_apart():
     board = scorer.finish()
     assert board.unseen_s == [0.0, 0.1, 0.2, 0.0]
     assert summarize([board])["predicted"] == 2 and len(board.errors_m) == 4
+
+
+def test_a_true_crowd_reported_under_another_id_is_an_id_change():
+    # one true crowd reported as 1, 1, 2, 2, (missed), 1: changes at the third frame and the sixth (the id it
+    # was last matched to, across the miss); a second true crowd appearing starts afresh, no change counted
+    scorer = BusScorer(LocalFrame(LAT, LON))
+    ids = (1, 1, 2, 2, None, 1, 1)
+    for k, cid in enumerate(ids):
+        stamp = T0 + 0.1 * k
+        truth = (TruthCrowd(LAT, LON, 10),) + ((TruthCrowd(LAT + 1e-3, LON, 10),) if k == 6 else ())
+        scorer.on_truth("t", Truth(stamp, k, truth, ()))
+        crowds = () if cid is None else (Crowd(cid, LAT, LON, (), (), 0.0, 0.0, 1.0, "least_squares", 0),)
+        if k == 6:
+            crowds += (Crowd(7, LAT + 1e-3, LON, (), (), 0.0, 0.0, 1.0, "least_squares", 0),)
+        scorer.on_crowds("c", Crowds("loc1", "uav1", stamp, "least_squares", (), (), crowds))
+    board = scorer.finish()
+    assert board.id_changes == 2
+    assert summarize([board])["id_changes"] == 2
