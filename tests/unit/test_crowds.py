@@ -623,3 +623,24 @@ def test_a_new_track_where_a_held_crowd_should_be_takes_its_id_and_its_usual_siz
     assert r.unseen_s == 0.0 and r.partly_seen
     assert r.estimate.north_m == pytest.approx(0.0, abs=0.05) and r.estimate.east_m == pytest.approx(1.4 * 4.9, abs=0.1)
     assert r.estimate.radius95_m > 1.0
+
+
+def test_a_crowd_keeps_its_id_when_the_track_of_one_of_its_parts_takes_its_blob():
+    # walking east, seen whole (40 px) for 3 s; cut in two for 0.5 s (its track keeps the part 2 m south, a
+    # new track takes the one 3 m north: one crowd); then whole again but centred 4.5 m north, past its own
+    # track's gate: the part's track takes the blob. The team still sees the crowd it knew, not a new id
+    def parts(t):
+        f, x = round(t * 10), 1.4 * t
+        if f < 30:
+            return [(x, 0.0, 40.0, 4.0)]
+        if f < 35:
+            return [(x, -2.0, 20.0, 2.0), (x, 3.0, 20.0, 2.0)]
+        return [(x, 4.5, 40.0, 4.0)]
+    state, ids, tracks = GroupingState(), [], []
+    for f in range(38):
+        t = f / 10
+        state, out = report_crowds(state, tuple(estimate(e, n, a, half=h) for e, n, a, h in parts(t)), T0 + t)
+        ids += [r.crowd_id for r in out]
+        tracks += [r.track.track_id for r in out]
+    assert len(ids) == 38 - 2 and len(set(ids)) == 1
+    assert tracks[-1] != tracks[0]   # reported under the part's track, by the crowd's id
