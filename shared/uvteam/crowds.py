@@ -443,9 +443,10 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
             continue
         k = int(np.argmin(d))
         r = out[k]
-        own = ls.crowd.track.track_id
-        # a new track, or one that was a part of this crowd (its blob taken in turns by two tracks)
-        was_part = (min(own, r.track.track_id), max(own, r.track.track_id)) in state.joined
+        # a new track, or one that was a part of this crowd (its blob taken in turns by two tracks): a part
+        # of a track it was known by (its own now, the one it was first, those that took its id)
+        mine = {ls.crowd.track.track_id, cid} | {t for t, c in state.alias.items() if c == cid}
+        was_part = any((min(t, r.track.track_id), max(t, r.track.track_id)) in state.joined for t in mine)
         if r.crowd_id == r.track.track_id and (r.track.first_s > ls.seen_s or was_part):
             alias[r.track.track_id] = cid
             taken.discard(r.crowd_id)

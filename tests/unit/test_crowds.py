@@ -645,3 +645,26 @@ def test_a_crowd_keeps_its_id_when_the_track_of_one_of_its_parts_takes_its_blob(
         tracks += [r.track.track_id for r in out]
     assert len(ids) == 38 - 2 and len(set(ids)) == 1
     assert tracks[-1] != tracks[0]   # reported under the part's track, by the crowd's id
+
+
+def test_a_crowd_keeps_its_id_when_a_part_of_the_track_it_was_first_takes_its_blob():
+    # as above, but between the cut and the part's track taking the blob, a new track took it for 0.5 s
+    # (the crowd found again: its id, its own track now): the part was one crowd with the crowd's first
+    # track, never with the new one, and still takes the crowd's id
+    def parts(t):
+        f, x = round(t * 10), 1.4 * t
+        if f < 30:
+            return [(x, 0.0, 40.0, 4.0)]
+        if f < 35:
+            return [(x, -2.0, 20.0, 2.0), (x, 3.0, 20.0, 2.0)]
+        if f < 40:
+            return [(x, -7.0, 40.0, 4.0)]
+        return [(x, 4.0, 40.0, 4.0)]
+    state, ids, tracks = GroupingState(), [], []
+    for f in range(43):
+        t = f / 10
+        state, out = report_crowds(state, tuple(estimate(e, n, a, half=h) for e, n, a, h in parts(t)), T0 + t)
+        ids += [r.crowd_id for r in out if r.unseen_s == 0.0]
+        tracks += [r.track.track_id for r in out if r.unseen_s == 0.0]
+    assert len(set(ids)) == 1
+    assert len(set(tracks[-3:])) == 1 and tracks[-1] not in (tracks[0], tracks[-4])
