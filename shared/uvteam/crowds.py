@@ -70,10 +70,11 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    does not walk on straight because it is no longer seen. It ends when a crowd is reported within
    ``near_m`` of where it should be (seen again, or walked into another crowd's blob) or after
    ``coast_s``; a new track found there keeps its id (a crowd found again by a new track is held only
-   once that track is ``coast_min_seen_s`` old), and so does a track that was a part of it (one crowd
-   with it in the last frame both were parts: the crowd's blob taken by two tracks in turns, as a cut
-   part's track takes the whole blob for a frame, had the crowd's id change at each turn: 91 times in the
-   2,785 frames of each of five worlds' seeds 4-10), also while the crowd's own track, unseen, is still kept,
+   once that track is ``coast_min_seen_s`` old), and so does a track that was a part of it (one crowd, in
+   the last frame both were parts, with a track the crowd was known by: its own, the one its id came
+   from, one that took its id; the crowd's blob taken by two tracks in turns, as a cut part's track takes
+   the whole blob for a frame, had the crowd's id change at each turn: 91 times in the 2,785 frames of
+   each of five worlds' seeds 4-10), also while the crowd's own track, unseen, is still kept,
    and is partly seen (step 7) if it has fewer moving pixels than the crowd usually had (the desert
    world's seed 4 at 37.0 s: half its walkers, seen 4.2 m off on a new track, had been a new crowd with a
    fresh 1.3 m radius). A crowd reported near it does not end it when it is
