@@ -626,6 +626,18 @@ def test_a_new_track_where_a_held_crowd_should_be_takes_its_id_and_its_usual_siz
     assert r.estimate.radius95_m > 1.0
 
 
+def seen_ids(parts_at, frames):
+    """Feed report_crowds ``frames`` frames at 10 Hz of parts_at(t) -> [(east, north, area, half-side)];
+    the id and the track of each crowd seen (not held by its walk), frame by frame."""
+    state, ids, tracks = GroupingState(), [], []
+    for f in range(frames):
+        t = f / 10
+        state, out = report_crowds(state, tuple(estimate(e, n, a, half=h) for e, n, a, h in parts_at(t)), T0 + t)
+        ids += [r.crowd_id for r in out if r.unseen_s == 0.0]
+        tracks += [r.track.track_id for r in out if r.unseen_s == 0.0]
+    return ids, tracks
+
+
 def test_a_crowd_keeps_its_id_when_the_track_of_one_of_its_parts_takes_its_blob():
     # walking east, seen whole (40 px) for 3 s; cut in two for 0.5 s (its track keeps the part 2 m south, a
     # new track takes the one 3 m north: one crowd); then whole again but centred 4.5 m north, past its own
@@ -637,12 +649,7 @@ def test_a_crowd_keeps_its_id_when_the_track_of_one_of_its_parts_takes_its_blob(
         if f < 35:
             return [(x, -2.0, 20.0, 2.0), (x, 3.0, 20.0, 2.0)]
         return [(x, 4.5, 40.0, 4.0)]
-    state, ids, tracks = GroupingState(), [], []
-    for f in range(38):
-        t = f / 10
-        state, out = report_crowds(state, tuple(estimate(e, n, a, half=h) for e, n, a, h in parts(t)), T0 + t)
-        ids += [r.crowd_id for r in out]
-        tracks += [r.track.track_id for r in out]
+    ids, tracks = seen_ids(parts, 38)
     assert len(ids) == 38 - 2 and len(set(ids)) == 1
     assert tracks[-1] != tracks[0]   # reported under the part's track, by the crowd's id
 
@@ -660,11 +667,6 @@ def test_a_crowd_keeps_its_id_when_a_part_of_the_track_it_was_first_takes_its_bl
         if f < 40:
             return [(x, -7.0, 40.0, 4.0)]
         return [(x, 4.0, 40.0, 4.0)]
-    state, ids, tracks = GroupingState(), [], []
-    for f in range(43):
-        t = f / 10
-        state, out = report_crowds(state, tuple(estimate(e, n, a, half=h) for e, n, a, h in parts(t)), T0 + t)
-        ids += [r.crowd_id for r in out if r.unseen_s == 0.0]
-        tracks += [r.track.track_id for r in out if r.unseen_s == 0.0]
+    ids, tracks = seen_ids(parts, 43)
     assert len(set(ids)) == 1
     assert len(set(tracks[-3:])) == 1 and tracks[-1] not in (tracks[0], tracks[-4])
