@@ -638,18 +638,24 @@ def seen_ids(parts_at, frames):
     return ids, tracks
 
 
-def test_a_crowd_keeps_its_id_when_the_track_of_one_of_its_parts_takes_its_blob():
-    # walking east, seen whole (40 px) for 3 s; cut in two for 0.5 s (its track keeps the part 2 m south, a
-    # new track takes the one 3 m north: one crowd); then whole again but centred 4.5 m north, past its own
-    # track's gate: the part's track takes the blob. The team still sees the crowd it knew, not a new id
+def seen_whole_then_cut(then):
+    """A crowd walking east at 1.4 m/s: seen whole (40 px) for 3 s, then cut in two for 0.5 s (its track keeps
+    the part 2 m south, a new track takes the one 3 m north), then ``then(frame, east)``."""
     def parts(t):
         f, x = round(t * 10), 1.4 * t
         if f < 30:
             return [(x, 0.0, 40.0, 4.0)]
         if f < 35:
             return [(x, -2.0, 20.0, 2.0), (x, 3.0, 20.0, 2.0)]
-        return [(x, 4.5, 40.0, 4.0)]
-    ids, tracks = seen_ids(parts, 38)
+        return then(f, x)
+    return parts
+
+
+def test_a_crowd_keeps_its_id_when_the_track_of_one_of_its_parts_takes_its_blob():
+    # walking east, seen whole (40 px) for 3 s; cut in two for 0.5 s (its track keeps the part 2 m south, a
+    # new track takes the one 3 m north: one crowd); then whole again but centred 4.5 m north, past its own
+    # track's gate: the part's track takes the blob. The team still sees the crowd it knew, not a new id
+    ids, tracks = seen_ids(seen_whole_then_cut(lambda f, x: [(x, 4.5, 40.0, 4.0)]), 38)
     assert len(ids) == 38 - 2 and len(set(ids)) == 1
     assert tracks[-1] != tracks[0]   # reported under the part's track, by the crowd's id
 
@@ -658,15 +664,6 @@ def test_a_crowd_keeps_its_id_when_a_part_of_the_track_it_was_first_takes_its_bl
     # as above, but between the cut and the part's track taking the blob, a new track took it for 0.5 s
     # (the crowd found again: its id, its own track now): the part was one crowd with the crowd's first
     # track, never with the new one, and still takes the crowd's id
-    def parts(t):
-        f, x = round(t * 10), 1.4 * t
-        if f < 30:
-            return [(x, 0.0, 40.0, 4.0)]
-        if f < 35:
-            return [(x, -2.0, 20.0, 2.0), (x, 3.0, 20.0, 2.0)]
-        if f < 40:
-            return [(x, -7.0, 40.0, 4.0)]
-        return [(x, 4.0, 40.0, 4.0)]
-    ids, tracks = seen_ids(parts, 43)
+    ids, tracks = seen_ids(seen_whole_then_cut(lambda f, x: [(x, -7.0 if f < 40 else 4.0, 40.0, 4.0)]), 43)
     assert len(set(ids)) == 1
     assert len(set(tracks[-3:])) == 1 and tracks[-1] not in (tracks[0], tracks[-4])
