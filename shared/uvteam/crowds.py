@@ -156,6 +156,10 @@ HOLD_MARGIN_M = 2.0        # a predicted centre this far outside a footprint is 
 Pair = tuple[int, int]   # two track ids, the smaller first
 
 
+def _pair(a: int, b: int) -> Pair:
+    return (a, b) if a < b else (b, a)
+
+
 @dataclass(frozen=True, slots=True, order=True)
 class Held:
     """A crowd a blob took in (step 4)."""
@@ -214,7 +218,7 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
     far = ~near & (dist >= cfg.apart_m)
     ids = [t.track_id for t in tracks]
     for i, j in np.argwhere(np.triu(near | far, 1)).tolist():   # in (i, j) order, as pairs were always taken
-        pair = (min(ids[i], ids[j]), max(ids[i], ids[j]))
+        pair = _pair(ids[i], ids[j])
         if pair in apart:
             # apart for a drift that has stopped: two crowds do not keep their distance for long (step 3)
             # rejoining asks for the drift itself to be small over rejoin_s, significant or not (a slope
@@ -447,7 +451,7 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
         # a new track, or one that was a part of this crowd (its blob taken in turns by two tracks): a part
         # of a track it was known by (its own now, the one it was first, those that took its id)
         mine = {ls.crowd.track.track_id, cid} | {t for t, c in state.alias.items() if c == cid}
-        was_part = any((min(t, r.track.track_id), max(t, r.track.track_id)) in state.joined for t in mine)
+        was_part = any(_pair(t, r.track.track_id) in state.joined for t in mine)
         if r.crowd_id == r.track.track_id and (r.track.first_s > ls.seen_s or was_part):
             alias[r.track.track_id] = cid
             taken.discard(r.crowd_id)
@@ -548,7 +552,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
         out_of = [trk[k].track_id for k in confirmed if trk[k].track_id == x or (
             trk[k].first_s > since[0].since_s and np.hypot(trk[k].east_m - at[0], trk[k].north_m - at[1]) < cfg.near_m)]
         for y in out_of[1:]:
-            pair = (min(out_of[0], y), max(out_of[0], y))
+            pair = _pair(out_of[0], y)
             if pair not in apart and since:
                 apart.add(pair)
                 if since[-1].drifted:
@@ -585,7 +589,7 @@ def _joined_after(joined: frozenset[Pair], ids: list[int], labels: list[int], li
     out = set(joined)
     for a in range(len(ids)):
         for b in range(a + 1, len(ids)):
-            pair = (min(ids[a], ids[b]), max(ids[a], ids[b]))
+            pair = _pair(ids[a], ids[b])
             if labels[a] == labels[b]:
                 out.add(pair)
             else:
