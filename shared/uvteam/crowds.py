@@ -23,8 +23,11 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    against the frame noise;
 2. estimates closer than ``near_m`` are parts of one crowd, and so is a small part (``straggler_ratio``
    of the other's moving pixels) whose footprint is within ``near_gap_m`` of a bigger one's, as the
-   walkers a UGV cuts off a crowd's edge; unless they move apart or together faster than
-   ``max_rel_speed_m_s``: the slope of a straight line fitted to the distance between them in the
+   walkers a UGV cuts off a crowd's edge, but not a part of another crowd (the last frame each part was
+   a part in; a young part of step 5 is the crowd's it joins): a crowd's blob cut in small pieces
+   beside another crowd is still that crowd (field-alt100-lm6 seed 8 at 54.1 s: two crowds 12 m apart
+   reported as one, 7.2 m off, when one's blob was cut in two); unless they move apart or together
+   faster than ``max_rel_speed_m_s``: the slope of a straight line fitted to the distance between them in the
    frames of the last ``window_s`` in which both were seen, ``significance`` standard errors from
    zero (a part's centre jitters by up to a metre as walkers cross between parts, so a slope over
    many frames, not two positions); parts not seen apart over ``min_span_s`` are one crowd. Parts that were
@@ -181,17 +184,21 @@ class GroupingState:
     alias: Mapping[int, int] = field(default_factory=dict)  # track id -> the id of the crowd it found again
     drifted: frozenset[Pair] = frozenset()   # the pairs in ``apart`` for their drift alone (they may rejoin)
     joined: frozenset[Pair] = frozenset()    # pairs of tracks one crowd in the last frame both were parts in
+    crowd_of: Mapping[int, int] = field(default_factory=dict)  # per track, the crowd id it was last a part of
 
 
 def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig = GroupingConfig(),
                  boxes_en: np.ndarray | None = None, areas: np.ndarray | None = None,
                  apart: frozenset[Pair] = frozenset(), streak: Mapping[Pair, int] | None = None,
-                 drifted: frozenset[Pair] = frozenset(), joined: frozenset[Pair] = frozenset()
+                 drifted: frozenset[Pair] = frozenset(), joined: frozenset[Pair] = frozenset(),
+                 crowds: list[int | None] | None = None
                  ) -> tuple[list[int], frozenset[Pair], dict[Pair, int], frozenset[Pair]]:
     """A group label per track (this frame's estimates): tracks with one label are one crowd.
     ``boxes_en`` (n, 4): each estimate's footprint as east/north min/max; ``areas`` (n,): its moving pixels;
-    ``apart``, ``streak``, ``drifted``, ``joined``: what earlier frames learnt (:class:`GroupingState`). Returns the
-    labels and the pairs known apart, the streaks and the pairs apart for their drift after this frame."""
+    ``apart``, ``streak``, ``drifted``, ``joined``: what earlier frames learnt (:class:`GroupingState`); ``crowds``
+    (n,): the id of the crowd each was a part of, or None (two parts of different crowds are not each
+    other's stragglers). Returns the labels and the pairs known apart, the streaks and the pairs apart for
+    their drift after this frame."""
     n = len(tracks)
     parent = list(range(n))
     apart = set(apart)
@@ -214,7 +221,11 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
         small = np.minimum(a[:, None], a[None]) <= cfg.straggler_ratio * np.maximum(a[:, None], a[None])
         lo, hi = boxes_en[:, :2], boxes_en[:, 2:]
         gap = np.maximum(0.0, np.maximum(lo[:, None] - hi[None], lo[None] - hi[:, None]))
-        near |= small & (np.sqrt((gap ** 2).sum(-1)) <= cfg.near_gap_m)
+        stray = small & (np.sqrt((gap ** 2).sum(-1)) <= cfg.near_gap_m)
+        if crowds is not None:    # parts of two crowds are not each other's stragglers
+            c = np.array([-1 if x is None else x for x in crowds])
+            stray &= (c[:, None] < 0) | (c[None] < 0) | (c[:, None] == c[None])
+        near |= stray
     far = ~near & (dist >= cfg.apart_m)
     ids = [t.track_id for t in tracks]
     for i, j in np.argwhere(np.triu(near | far, 1)).tolist():   # in (i, j) order, as pairs were always taken
@@ -559,26 +570,32 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
                     drifted.add(pair)
                 since = holds[x] = since[:-1]
     groups: dict[int, list[int]] = {}
-    parts = confirmed + _young_parts(state, estimates, confirmed, stamp_s, holds, cfg)
+    young = _young_parts(state, estimates, confirmed, stamp_s, holds, cfg)
+    parts = confirmed + list(young)
     boxes_en = boxes_all[parts].reshape(-1, 4)
     areas = np.array([estimates[k].area_px for k in parts], float)
+    crowds = [young.get(k, state.crowd_of.get(trk[k].track_id)) for k in parts]
     labels, apart, streak, drifted = crowd_groups([trk[k] for k in parts], stamp_s, cfg, boxes_en, areas,
-                                                  frozenset(apart), state.streak, frozenset(drifted), state.joined)
+                                                  frozenset(apart), state.streak, frozenset(drifted), state.joined,
+                                                  crowds)
     joined = _joined_after(state.joined, [trk[k].track_id for k in parts], labels, live)
     for k, g in zip(parts, labels):
         groups.setdefault(g, []).append(k)
-    out = []
+    out, of_lead = [], {}
     for members in groups.values():
         if not any(k in confirmed for k in members):    # young parts join a crowd; alone they are none
             continue
         lead = min(members, key=lambda k: (-trk[k].hits, trk[k].track_id))
         out.append(ReportedCrowd(_merge([estimates[k] for k in members]), trk[lead], trk[lead].track_id))
+        of_lead[trk[lead].track_id] = [trk[k].track_id for k in members]
     out, last_seen, alias, coasted = _remembered(state, out, stamp_s, cfg, live, frozenset(holds))
+    crowd_of = {t: c for t, c in state.crowd_of.items() if t in live}
+    crowd_of.update((t, r.crowd_id) for r in out for t in of_lead[r.track.track_id])
     out += coasted
     out.sort(key=lambda c: (-c.track.hits, c.crowd_id))
     apart = frozenset(p for p in apart if p[0] in live and p[1] in live)   # forgotten with either track
     holds = {x: v for x, v in holds.items() if v and x in live}
-    return GroupingState(tracker, apart, streak, holds, last_seen, alias, drifted & apart, joined), out
+    return GroupingState(tracker, apart, streak, holds, last_seen, alias, drifted & apart, joined, crowd_of), out
 
 
 def _joined_after(joined: frozenset[Pair], ids: list[int], labels: list[int], live: Mapping[int, CrowdTrack]
@@ -606,7 +623,7 @@ def _in_boxes(points_en: np.ndarray, boxes_en: np.ndarray, margin_m: float = 0.0
 
 
 def _young_parts(state: GroupingState, estimates: tuple[CrowdEstimate, ...], confirmed: list[int],
-                 stamp_s: float, holds: Mapping, cfg: GroupingConfig) -> list[int]:
+                 stamp_s: float, holds: Mapping, cfg: GroupingConfig) -> dict[int, int]:
     """Step 5's exception: the estimates of tracks seen fewer than ``confirm_hits`` times whose centre
     lies in the footprint of a crowd seen in the last frame that crowds were seen in (moved on by
     its track's velocity), unless that crowd's track holds crowds of step 4, and only as much as the
@@ -619,10 +636,10 @@ def _young_parts(state: GroupingState, estimates: tuple[CrowdEstimate, ...], con
     seen = [ls for ls in state.last_seen.values() if ls.seen_s < stamp_s and ls.crowd.unseen_s == 0.0
             and ls.crowd.track.track_id not in holds]
     if not seen:
-        return []
+        return {}
     last_s = max(ls.seen_s for ls in seen)
     centres = np.array([[c.east_m, c.north_m] for c in estimates], float).reshape(-1, 2)
-    young: list[int] = []
+    young: dict[int, int] = {}    # estimate -> the id of the crowd it is a part of
     for ls in seen:
         if ls.seen_s != last_s:
             continue
@@ -637,7 +654,7 @@ def _young_parts(state: GroupingState, estimates: tuple[CrowdEstimate, ...], con
         for k in sorted((k for k in inside if k not in confirmed and k not in young),
                         key=lambda k: -estimates[k].area_px):
             if have < cfg.seen_whole * whole and have + estimates[k].area_px <= whole / cfg.seen_whole:
-                young.append(k)
+                young[k] = ls.crowd.crowd_id
                 have += estimates[k].area_px
     return young
 
