@@ -88,8 +88,9 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    held by its walk and the other track is not reported. A map that drops a crowd the moment its
    walkers blend in shows a crowd that vanished; one that holds it too long shows a crowd that is not
    there: ``coast_s`` is the bargain (docs/results-worlds.md measures it);
-7. a crowd seen with fewer moving pixels than it usually has (its median over the last ``window_s``)
-   is partly out of sight, and what is seen of it lies to one side: with ``seen_whole`` of them or more
+7. a crowd seen with fewer moving pixels than it usually has (its median over the last ``window_s``;
+   counted afresh from a frame in which its blob let a crowd of step 4 out: what it had was two crowds',
+   field-alt100-lm6 seed 3 at 45.4-47.0 s placed 2.4-3.1 m off, between the two) is partly out of sight, and what is seen of it lies to one side: with ``seen_whole`` of them or more
    it is where it is seen, with ``seen_none`` or fewer where its walk takes it (step 6), and in
    between at a point between the two by the share seen, its radius the larger of the two. While it is
    partly seen its walk is the one it had when seen whole (what is seen of it would pull the walk
@@ -442,7 +443,8 @@ class LastSeen:
 
 
 def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s: float, cfg: GroupingConfig,
-                live: Mapping[int, CrowdTrack], holding: frozenset[int] = frozenset()
+                live: Mapping[int, CrowdTrack], holding: frozenset[int] = frozenset(),
+                released: frozenset[int] = frozenset()
                 ) -> tuple[list[ReportedCrowd], dict[int, LastSeen], dict[int, int], list[ReportedCrowd]]:
     """Steps 6 and 7: the crowds seen this frame under the ids the team knows them by (placed by their
     walk where partly seen), what is remembered of them, the ids carried over, and the crowds unseen
@@ -476,9 +478,10 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
             alias.pop(r.track.track_id, None)
     for k, r in enumerate(out):
         tr, prev = r.track, last.get(r.crowd_id)
-        areas = tuple(a for a in (prev.areas if prev is not None else ()) if a[0] >= stamp_s - cfg.window_s - 1e-6)
-        areas += ((stamp_s, r.estimate.area_px),)
-        out[k] = r = _partly_seen(r, prev, stamp_s, cfg)
+        # a blob that let a crowd out is one crowd less: the size it had is no longer this crowd's usual
+        was = () if prev is None or tr.track_id in released else prev.areas
+        areas = tuple(a for a in was if a[0] >= stamp_s - cfg.window_s - 1e-6) + ((stamp_s, r.estimate.area_px),)
+        out[k] = r = _partly_seen(r, prev if was else None, stamp_s, cfg)
         if r.partly_seen:      # its walk seen whole goes on: the part seen would pull it aside
             last[r.crowd_id] = replace(prev, crowd=r, seen_s=stamp_s, areas=areas)
             continue
@@ -557,6 +560,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     estimates = tuple(_with_scatter(c, t, cfg) for c, t in zip(estimates, trk))
     confirmed = [k for k in range(len(trk)) if trk[k].hits >= cfg.confirm_hits]  # a one-frame blob joins nothing
     apart, drifted = set(state.apart), set(state.drifted)
+    released = set()    # tracks whose blob let a crowd it took in out this frame
     for x, since in list(holds.items()):    # crowds coming out of the blob that took them in
         at = live[x].predicted(stamp_s)
         # the blob's own track if seen, and parts first seen since the merge beside where it is
@@ -569,6 +573,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
                 if since[-1].drifted:
                     drifted.add(pair)
                 since = holds[x] = since[:-1]
+                released.add(x)
     groups: dict[int, list[int]] = {}
     young = _young_parts(state, estimates, confirmed, stamp_s, holds, cfg)
     parts = confirmed + list(young)
@@ -588,7 +593,8 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
         lead = min(members, key=lambda k: (-trk[k].hits, trk[k].track_id))
         out.append(ReportedCrowd(_merge([estimates[k] for k in members]), trk[lead], trk[lead].track_id))
         of_lead[trk[lead].track_id] = [trk[k].track_id for k in members]
-    out, last_seen, alias, coasted = _remembered(state, out, stamp_s, cfg, live, frozenset(holds))
+    out, last_seen, alias, coasted = _remembered(state, out, stamp_s, cfg, live, frozenset(holds),
+                                                 frozenset(released))
     crowd_of = {t: c for t, c in state.crowd_of.items() if t in live}
     crowd_of.update((t, r.crowd_id) for r in out for t in of_lead[r.track.track_id])
     out += coasted

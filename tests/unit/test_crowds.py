@@ -190,6 +190,16 @@ def test_a_crowd_coming_out_of_the_blob_that_took_it_in_is_two_at_once(seed):
     assert set(run.counts[163:170]) == {1}
 
 
+def test_the_blob_a_crowd_came_out_of_is_then_one_crowd_seen_whole():
+    # after B comes out at t = 16 s, A's blob has 20 units of the 30 the blob had with B in it: A is seen
+    # whole where its blob is, not partly seen and placed towards the walk of the blob that held both
+    # (field-alt100-lm6 seed 3 at 45.4-47.0 s: 2.4-3.1 m off, between the two crowds)
+    for f in range(163, 200, 6):
+        out = run(_merge_and_part, f / 10.0 + 0.05, jitter_m=0.0)
+        a = min(out, key=lambda r: r.estimate.east_m)
+        assert not a.partly_seen and a.estimate.east_m == pytest.approx(0.0, abs=1e-6), f
+
+
 def test_the_memory_goes_on_with_the_blob_when_its_centre_jumps():
     # at t = 12 s the merged blob's centre jumps 5 m (beyond the tracker's 4 m gate: a new track), its
     # footprint still over the old centre: the new track holds B, which comes out at once at t = 16 s
