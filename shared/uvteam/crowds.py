@@ -27,14 +27,16 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    a part in; a young part of step 5 is the crowd's it joins): a crowd's blob cut in small pieces
    beside another crowd is still that crowd (field-alt100-lm6 seed 8 at 54.1 s: two crowds 12 m apart
    reported as one, 7.2 m off, when one's blob was cut in two); unless they move apart or together
-   faster than ``max_rel_speed_m_s``: the slope of a straight line fitted to the distance between them in the
-   frames of the last ``window_s`` in which both were seen, ``significance`` standard errors from
+   faster than ``max_rel_speed_m_s``: the slope of a straight line fitted to the distance between them
+   in the frames of the last ``window_s`` in which both were seen, ``significance`` standard errors from
    zero (a part's centre jitters by up to a metre as walkers cross between parts, so a slope over
-   many frames, not two positions); parts not seen apart over ``min_span_s`` are one crowd. Parts that were
-   one crowd in the last frame both were parts in stay one while such a drift has not yet latched them
-   two (step 3): a crowd's blob cut in two drifts so for a few frames as the cut opens or heals (tuning
-   seed 102 of real-alt60-lm6-winding: its two parts reported as two crowds, 2.5-3.5 m off, for 7 frames),
-   while two crowds that were two stay two meanwhile;
+   many frames, not two positions); parts not seen apart over ``min_span_s`` are one crowd, unless they
+   were parts of two crowds (then one only once seen not to drift: a part of a crowd that takes a new
+   track near another crowd, field-alt100-lm6 seed 10 at 56.0 s, made the two one for a frame, 5.1 m
+   off). Parts that were one crowd in the last frame both were parts in stay one while such a drift
+   has not yet latched them two (step 3): a crowd's blob cut in two drifts so for a few frames as the
+   cut opens or heals (tuning seed 102 of real-alt60-lm6-winding: its two parts reported as two crowds,
+   2.5-3.5 m off, for 7 frames), while two crowds that were two stay two meanwhile;
 3. what is learnt sticks while both tracks live (:class:`GroupingState`): parts once ``apart_m`` or more
    apart, or moving apart or together in ``apart_frames`` frames in a row, stay two crowds. Two crowds
    that close in slowly, or part again after walking as one blob, are then not joined by a frame in
@@ -90,7 +92,8 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    there: ``coast_s`` is the bargain (docs/results-worlds.md measures it);
 7. a crowd seen with fewer moving pixels than it usually has (its median over the last ``window_s``;
    counted afresh from a frame in which its blob let a crowd of step 4 out: what it had was two crowds',
-   field-alt100-lm6 seed 3 at 45.4-47.0 s placed 2.4-3.1 m off, between the two) is partly out of sight, and what is seen of it lies to one side: with ``seen_whole`` of them or more
+   field-alt100-lm6 seed 3 at 45.4-47.0 s placed 2.4-3.1 m off, between the two) is partly out of
+   sight, and what is seen of it lies to one side: with ``seen_whole`` of them or more
    it is where it is seen, with ``seen_none`` or fewer where its walk takes it (step 6), and in
    between at a point between the two by the share seen, its radius the larger of the two. While it is
    partly seen its walk is the one it had when seen whole (what is seen of it would pull the walk
@@ -185,7 +188,7 @@ class GroupingState:
     alias: Mapping[int, int] = field(default_factory=dict)  # track id -> the id of the crowd it found again
     drifted: frozenset[Pair] = frozenset()   # the pairs in ``apart`` for their drift alone (they may rejoin)
     joined: frozenset[Pair] = frozenset()    # pairs of tracks one crowd in the last frame both were parts in
-    crowd_of: Mapping[int, int] = field(default_factory=dict)  # per track, the crowd id it was last a part of
+    crowd_of: Mapping[int, int] = field(default_factory=dict)  # per track, the crowd it was last reported in
 
 
 def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig = GroupingConfig(),
@@ -196,10 +199,10 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
                  ) -> tuple[list[int], frozenset[Pair], dict[Pair, int], frozenset[Pair]]:
     """A group label per track (this frame's estimates): tracks with one label are one crowd.
     ``boxes_en`` (n, 4): each estimate's footprint as east/north min/max; ``areas`` (n,): its moving pixels;
-    ``apart``, ``streak``, ``drifted``, ``joined``: what earlier frames learnt (:class:`GroupingState`); ``crowds``
-    (n,): the id of the crowd each was a part of, or None (two parts of different crowds are not each
-    other's stragglers). Returns the labels and the pairs known apart, the streaks and the pairs apart for
-    their drift after this frame."""
+    ``apart``, ``streak``, ``drifted``, ``joined``: what earlier frames learnt (:class:`GroupingState`);
+    ``crowds`` (n,): the id of the crowd each was a part of, or None (parts of two crowds are not each
+    other's stragglers, nor one crowd before their drift is measured). Returns the labels and the pairs
+    known apart, the streaks and the pairs apart for their drift after this frame."""
     n = len(tracks)
     parent = list(range(n))
     apart = set(apart)
@@ -217,16 +220,17 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
     en = np.array([[t.east_m, t.north_m] for t in tracks], float).reshape(-1, 2)
     dist = np.sqrt(((en[:, None] - en[None]) ** 2).sum(-1))
     near = dist < cfg.near_m
+    two = np.zeros((n, n), bool)    # parts of two crowds, the last frame each was a part in
+    if crowds is not None and n:
+        c = np.array([-1 if x is None else x for x in crowds])
+        two = (c[:, None] >= 0) & (c[None] >= 0) & (c[:, None] != c[None])
     if boxes_en is not None and areas is not None and n:
         a = np.asarray(areas, float)
         small = np.minimum(a[:, None], a[None]) <= cfg.straggler_ratio * np.maximum(a[:, None], a[None])
         lo, hi = boxes_en[:, :2], boxes_en[:, 2:]
         gap = np.maximum(0.0, np.maximum(lo[:, None] - hi[None], lo[None] - hi[:, None]))
         stray = small & (np.sqrt((gap ** 2).sum(-1)) <= cfg.near_gap_m)
-        if crowds is not None:    # parts of two crowds are not each other's stragglers
-            c = np.array([-1 if x is None else x for x in crowds])
-            stray &= (c[:, None] < 0) | (c[None] < 0) | (c[:, None] == c[None])
-        near |= stray
+        near |= stray & ~two
     far = ~near & (dist >= cfg.apart_m)
     ids = [t.track_id for t in tracks]
     for i, j in np.argwhere(np.triu(near | far, 1)).tolist():   # in (i, j) order, as pairs were always taken
@@ -246,7 +250,8 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
         if far[i, j]:
             apart.add(pair)
             continue
-        if _rel_speed_m_s(trails[i], trails[j], stamp_s, cfg) > cfg.max_rel_speed_m_s:
+        rel = _rel_speed_m_s(trails[i], trails[j], stamp_s, cfg)
+        if rel > cfg.max_rel_speed_m_s:
             new_streak[pair] = streak.get(pair, 0) + 1
             if new_streak[pair] >= cfg.apart_frames:
                 apart.add(pair)
@@ -254,8 +259,8 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
                 del new_streak[pair]
             elif pair in joined:       # one crowd the last frame: one until the drift latches (step 2)
                 parent[root(j)] = root(i)
-        else:                          # not significant, or NaN (not seen apart long enough): one crowd
-            parent[root(j)] = root(i)
+        elif rel <= cfg.max_rel_speed_m_s or not two[i, j]:   # not significant, or NaN (not seen apart long
+            parent[root(j)] = root(i)       # enough): one crowd; but parts of two crowds once seen not to drift
     return [root(i) for i in range(n)], frozenset(apart), new_streak, frozenset(drifted & apart)
 
 
