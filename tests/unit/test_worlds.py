@@ -92,7 +92,7 @@ def test_fixed_benchmark_frames_render_bit_for_bit_as_before(name):
 def test_own_scenarios_load_with_ten_seeds(name):
     sc = load_own_scenario(name)
     assert sc.run.seeds == tuple(range(1, 11))
-    assert sc.ugvs.count == 6 and len(sc.crowds) == 1
+    assert sc.ugvs.count == 6 and len(sc.crowds) == (2 if name.endswith("-two") else 1)
     assert sc.distractors.on_route >= 6 and sc.distractors.near_crowd >= 6
     assert name in (OWN_SCENARIOS / "README.md").read_text()
 
@@ -104,6 +104,7 @@ def test_gnss_tilt_noise_and_pose_variants_differ_from_their_base_only_there():
                                 ("real-alt60-lm6-noise20", "real-alt60-lm6", ("camera",)),
                                 ("real-alt60-lm6-winding", "real-alt60-lm6", ("crowds",)),
                                 ("real-alt120-lm6-winding", "real-alt120-lm6", ("crowds",)),
+                                ("real-alt60-lm6-two", "real-alt60-lm6", ("crowds",)),
                                 ("real-alt60-lm0-pose", "real-alt60-lm6", ("uav", "ugvs")),
                                 ("real-alt120-lm0-pose", "real-alt120-lm6", ("uav", "ugvs"))):
         v, b = load_own_scenario(name), load_own_scenario(base)
@@ -125,6 +126,8 @@ def test_gnss_tilt_noise_and_pose_variants_differ_from_their_base_only_there():
     for alt in (60, 120):
         v, b = load_own_scenario(f"real-alt{alt}-lm6-winding"), load_own_scenario(f"real-alt{alt}-lm6")
         assert v.crowds == (replace(b.crowds[0], turn_sigma_deg_s=6.0),) and b.crowds[0].turn_sigma_deg_s == 0.0
+    v, b = load_own_scenario("real-alt60-lm6-two"), load_own_scenario("real-alt60-lm6")
+    assert v.crowds[0] == b.crowds[0] and len(v.crowds) == 2 and v.crowds[1].turn_sigma_deg_s == 0.0
     t = load_own_scenario("real-alt120-lm6-tilt9").uav
     assert 8.0 <= off_nadir_deg(t.tilt_roll_deg, t.tilt_pitch_deg) <= 10.0
 
