@@ -23,8 +23,8 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    against the frame noise;
 2. estimates closer than ``near_m`` are parts of one crowd, and so is a small part (``straggler_ratio``
    of the other's moving pixels) whose footprint is within ``near_gap_m`` of a bigger one's, as the
-   walkers a UGV cuts off a crowd's edge, but not a part of another crowd (the last frame each part was
-   a part in; a young part of step 5 is the crowd's it joins): a crowd's blob cut in small pieces
+   walkers a UGV cuts off a crowd's edge, but not a part of another crowd (the crowd each part was last
+   reported in; a young part of step 5 is the crowd's it joins): a crowd's blob cut in small pieces
    beside another crowd is still that crowd (field-alt100-lm6 seed 8 at 54.1 s: two crowds 12 m apart
    reported as one, 7.2 m off, when one's blob was cut in two); unless they move apart or together
    faster than ``max_rel_speed_m_s``: the slope of a straight line fitted to the distance between them
@@ -220,7 +220,7 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
     en = np.array([[t.east_m, t.north_m] for t in tracks], float).reshape(-1, 2)
     dist = np.sqrt(((en[:, None] - en[None]) ** 2).sum(-1))
     near = dist < cfg.near_m
-    two = np.zeros((n, n), bool)    # parts of two crowds, the last frame each was a part in
+    two = np.zeros((n, n), bool)    # parts last reported in two crowds
     if crowds is not None and n:
         c = np.array([-1 if x is None else x for x in crowds])
         two = (c[:, None] >= 0) & (c[None] >= 0) & (c[:, None] != c[None])
