@@ -484,9 +484,10 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
     for k, r in enumerate(out):
         tr, prev = r.track, last.get(r.crowd_id)
         # a blob that let a crowd out is one crowd less: the size it had is no longer this crowd's usual
-        was = () if prev is None or tr.track_id in released else prev.areas
-        areas = tuple(a for a in was if a[0] >= stamp_s - cfg.window_s - 1e-6) + ((stamp_s, r.estimate.area_px),)
-        out[k] = r = _partly_seen(r, prev if was else None, stamp_s, cfg)
+        known = prev if tr.track_id not in released else None
+        areas = tuple(a for a in (known.areas if known is not None else ()) if a[0] >= stamp_s - cfg.window_s - 1e-6)
+        areas += ((stamp_s, r.estimate.area_px),)
+        out[k] = r = _partly_seen(r, known, stamp_s, cfg)
         if r.partly_seen:      # its walk seen whole goes on: the part seen would pull it aside
             last[r.crowd_id] = replace(prev, crowd=r, seen_s=stamp_s, areas=areas)
             continue
