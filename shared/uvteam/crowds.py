@@ -31,9 +31,12 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    in the frames of the last ``window_s`` in which both were seen, ``significance`` standard errors from
    zero (a part's centre jitters by up to a metre as walkers cross between parts, so a slope over
    many frames, not two positions); parts not seen apart over ``min_span_s`` are one crowd, unless they
-   were parts of two crowds (then one only once seen not to drift: a part of a crowd that takes a new
+   were parts of two crowds: then one only once seen not to drift (a part of a crowd that takes a new
    track near another crowd, field-alt100-lm6 seed 10 at 56.0 s, made the two one for a frame, 5.1 m
-   off). Parts that were one crowd in the last frame both were parts in stay one while such a drift
+   off), which is more than a drift not significant: the slope plus ``two_upper_k`` standard errors
+   under ``max_rel_speed_m_s`` (two crowds 9.7 m apart closing in at 0.33 m/s, tuning seed 100 of
+   real-alt60-lm6-two at 16.1 s, were one crowd from the first frame their slope was not significant,
+   reported between them 1.7-4.7 m off for the 4 s until their blobs became one). Parts that were one crowd in the last frame both were parts in stay one while such a drift
    has not yet latched them two (step 3): a crowd's blob cut in two drifts so for a few frames as the
    cut opens or heals (tuning seed 102 of real-alt60-lm6-winding: its two parts reported as two crowds,
    2.5-3.5 m off, for 7 frames), while two crowds that were two stay two meanwhile;
@@ -138,6 +141,7 @@ class GroupingConfig:
     coast_sigma_a_m_s2: float = 0.15  # ... and its pace and heading changing by this per axis (1 sigma)
     seen_whole: float = 0.85      # a crowd seen with this share of its usual moving pixels is seen whole;
     seen_none: float = 0.5        # ... with this share or less, where its walk takes it (step 7)
+    two_upper_k: float = 2.0      # parts of two crowds are one once their drift plus this many standard errors is slow
 
     def __post_init__(self) -> None:
         for name in ("near_m", "window_s", "min_span_s", "max_rel_speed_m_s"):
@@ -259,8 +263,10 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
                 del new_streak[pair]
             elif pair in joined:       # one crowd the last frame: one until the drift latches (step 2)
                 parent[root(j)] = root(i)
-        elif rel <= cfg.max_rel_speed_m_s or not two[i, j]:   # not significant, or NaN (not seen apart long
-            parent[root(j)] = root(i)       # enough): one crowd; but parts of two crowds once seen not to drift
+        elif not two[i, j] or _rel_speed_m_s(trails[i], trails[j], stamp_s, cfg, cfg.two_upper_k
+                                             ) <= cfg.max_rel_speed_m_s:
+            parent[root(j)] = root(i)       # not significant, or NaN (not seen apart long enough): one crowd;
+                                            # but parts of two crowds only once seen not to drift
     return [root(i) for i in range(n)], frozenset(apart), new_streak, frozenset(drifted & apart)
 
 
@@ -269,9 +275,10 @@ def _trail_since(track: CrowdTrack, since_s: float) -> dict:
     return {k: (s[1], s[2]) for s in track.trail if (k := round(s[0], 3)) > since_s}
 
 
-def _rel_speed_m_s(a: dict, b: dict, stamp_s: float, cfg: GroupingConfig) -> float:
+def _rel_speed_m_s(a: dict, b: dict, stamp_s: float, cfg: GroupingConfig, upper_k: float | None = None) -> float:
     """How fast the distance between two parts changes, m/s (0 when not significant; NaN when they were
-    not seen apart long enough)."""
+    not seen apart long enough); with ``upper_k``, as fast as it may change: the slope's size plus that
+    many standard errors, significant or not."""
     both = [s for s in sorted(set(a) & set(b)) if s > stamp_s - cfg.window_s - 1e-6]
     if len(both) < 5 or both[-1] - both[0] < cfg.min_span_s - 1e-6:
         return float("nan")
@@ -281,6 +288,8 @@ def _rel_speed_m_s(a: dict, b: dict, stamp_s: float, cfg: GroupingConfig) -> flo
     slope = (tc * (dist - dist.mean())).sum() / (tc ** 2).sum()
     resid = dist - dist.mean() - slope * tc
     stderr = np.sqrt((resid ** 2).sum() / (len(t) - 2) / (tc ** 2).sum())
+    if upper_k is not None:
+        return float(abs(slope) + upper_k * stderr)
     return float(abs(slope)) if abs(slope) > cfg.significance * stderr else 0.0
 
 
