@@ -726,3 +726,33 @@ def test_two_crowds_closing_in_while_their_drift_is_not_yet_significant_stay_two
         return [(0.0, n, 20.0, 5.0), (13.0 - 0.5 * t, n, 20.0, 5.0)]
     run(parts, 8.0, seed=seed, jitter_m=0.4)
     assert set(run.counts[3:]) == {2}
+
+
+def test_a_blob_that_took_another_crowd_in_has_a_radius_that_holds_its_own_crowd():
+    # A (30 units) and B (10), each seen on its own for 8 s walking north 13 m apart (two: past near_m),
+    # then one blob: its centre the pixel-weighted mean (3.25 m from A, 9.75 m from B), its pixels both
+    # crowds', its footprint over both. It is reported as one crowd, A's (B's place by its walk is in its
+    # footprint, it has A's pixels and more than half B's), at the blob's centre, with a radius that
+    # reaches where A is: the radius of A seen whole plus the 3.25 m from the blob's centre to A. Once the
+    # blob has no more than A's pixels (B walked out of sight) the radius is A's own again
+    def parts(t, merged_until=12.0):
+        n = 1.2 * t
+        if t < 8.0:
+            return [(0.0, n, 30.0, 4.0), (13.0, n, 10.0, 3.0)]
+        if t < merged_until:
+            return [(3.25, n, 40.0, 10.0)]
+        return [(0.0, n, 30.0, 4.0)]
+    for seconds in (8.5, 10.0, 11.9):
+        (own,) = run(parts, seconds, jitter_m=0.0, cfg=GroupingConfig(held_share=10.0))   # step 8 off
+        assert run.state.inside == {}
+        (a,) = run(parts, seconds, jitter_m=0.0)
+        assert a.estimate.east_m == pytest.approx(3.25) and a.unseen_s == 0.0
+        assert a.estimate.radius95_m == pytest.approx(own.estimate.radius95_m + 3.25, abs=0.01), seconds
+        assert list(run.state.inside) == [a.crowd_id]
+    own = run(parts, 12.5, jitter_m=0.0, cfg=GroupingConfig(held_share=10.0))
+    out = run(parts, 12.5, jitter_m=0.0)
+    assert run.state.inside == {} and len(out) == len(own) >= 1
+    assert [r.estimate.radius95_m for r in out] == pytest.approx([r.estimate.radius95_m for r in own])
+    # with A's pixels alone (B unseen elsewhere, not in A's blob) nothing is held
+    run(lambda t: parts(t, merged_until=8.0), 10.0, jitter_m=0.0)
+    assert run.state.inside == {}
