@@ -9,9 +9,10 @@ business (:mod:`uvteam.nodes.localizer`). Per frame, :func:`localize_step` runs 
    missing, its planned waypoints for at most one tracking interval after the newest fix (the paper's
    rule); else unusable.
 2. :func:`pair_landmarks` -- landmark <-> blob assignment: a blob in which the detector saw a UGV's
-   roof label is that UGV's; the rest solved afresh at the start of each tracking interval from the
-   label centres; inside the interval the pairing is kept by continuity (each UGV's previous
-   motion-blob centre predicts where its blob is now), so a UGV whose label flickers keeps its blob.
+   roof label is that UGV's (all such blobs are; its landmark is the biggest); the rest solved afresh
+   at the start of each tracking interval from the label centres; inside the interval the pairing is
+   kept by continuity (each UGV's previous motion-blob centre predicts where its blob is now), so a UGV
+   whose label flickers keeps its blob.
    Every blob within the gate of a label is a UGV, never a crowd, unless the detector labelled another
    blob as that UGV's (it carved the UGV out of a crowd it drove into: what is left beside it is crowd).
 3. :func:`landmark_pixels` -- each landmark's image point: its motion blob's centre or its label's
@@ -389,11 +390,19 @@ def pair_landmarks(state: LocalizerState, obs: FrameObservation, cfg: LocalizerC
     ref: dict[str, tuple[float, float]] = dict(label_px)
     if not new_interval:   # the previous blob predicts the current one better than a flickering label
         ref.update({u: (x, y) for u, x, y in state.blob_px_of_ugv})
-    labelled = {u: j for j, u in enumerate(blobs.ugv) if u}
+    # every blob the detector labelled as a UGV's is that UGV, never a crowd (a blob it split in two
+    # pieces that both hold a UGV's point carves the UGV out of each: two blobs centred on it, tuning
+    # seed 2 of real-alt60-lm6-two at 31.4 s, 1012 and 308 px); the UGV's landmark is the biggest
+    mine = [j for j, u in enumerate(blobs.ugv) if u]
+    labelled: dict[str, int] = {}
+    for j in mine:
+        u = blobs.ugv[j]
+        if u not in labelled or blobs.area_px[j] > blobs.area_px[labelled[u]]:
+            labelled[u] = j
     to_assign = sorted(u for u in ref if u not in labelled)
     if labelled:
         free = np.ones(nb, bool)
-        free[list(labelled.values())] = False
+        free[mine] = False
         free = np.flatnonzero(free)
         free_xy = xy[free]
     else:
@@ -406,7 +415,7 @@ def pair_landmarks(state: LocalizerState, obs: FrameObservation, cfg: LocalizerC
     else:
         is_ugv = np.zeros(nb, bool)
         is_ugv[free] = asg.gated_blobs
-        is_ugv[list(labelled.values())] = True
+        is_ugv[mine] = True
     # labels gate blobs too, whatever the continuity says; but not those of UGVs the detector found a
     # blob for: it carved that UGV out of whatever it drove through, so the rest is not the UGV. (At the
     # start of an interval the labels were the references: the assignment has gated their blobs.)

@@ -279,3 +279,23 @@ def test_a_moving_ugv_whose_label_has_no_blob_of_its_own_claims_the_blob_beside_
     _, out = localize_step(LocalizerState(), obs, tracks, cfg())
     crowds = sorted(c.blob_index for c in out.crowds)
     assert crowds == ([0, len(blobs) - 1] if red_blob_is_crowd else [len(blobs) - 1])
+
+
+def test_every_blob_labelled_as_a_ugv_is_that_ugv_never_a_crowd():
+    # the detector gave red two blobs, both centred on it (1000 and 300 px: a blob it split in two
+    # pieces, each holding red's point, carves red out of each): both are red's, neither a crowd, and
+    # red's landmark is the bigger (tuning seed 2 of real-alt60-lm6-two at 31.4 s: the smaller reported
+    # as a crowd on the UGV for three frames)
+    tracks = {u: track_at(en) for u, en in UGVS.items()}
+    obs = observation(1.0)
+    xy = obs.blobs.xy_px
+    n = len(xy)
+    for first in ("piece", "disc"):
+        extra = 300.0 if first == "disc" else 1000.0
+        blobs = np.vstack([xy, xy[:1]])
+        areas = np.r_[1000.0 if first == "disc" else 300.0, np.ones(n - 1), extra]
+        labels = ("red",) + ("",) * (n - 1) + ("red",)
+        _, out = localize_step(LocalizerState(), frame_obs(1.0, obs.landmarks.as_dict(), blobs, ugv=labels,
+                                                           areas=areas), tracks, cfg())
+        assert [c.blob_index for c in out.crowds] == [n - 1], first
+        assert out.blob_of_ugv["red"] == int(np.argmax(np.where(np.array(labels) == "red", areas, -1.0)))
