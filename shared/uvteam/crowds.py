@@ -36,10 +36,11 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    off), which is more than a drift not significant: the slope plus ``two_upper_k`` standard errors
    under ``max_rel_speed_m_s`` (two crowds 9.7 m apart closing in at 0.33 m/s, tuning seed 100 of
    real-alt60-lm6-two at 16.1 s, were one crowd from the first frame their slope was not significant,
-   reported between them 1.7-4.7 m off for the 4 s until their blobs became one). Parts that were one crowd in the last frame both were parts in stay one while such a drift
-   has not yet latched them two (step 3): a crowd's blob cut in two drifts so for a few frames as the
-   cut opens or heals (tuning seed 102 of real-alt60-lm6-winding: its two parts reported as two crowds,
-   2.5-3.5 m off, for 7 frames), while two crowds that were two stay two meanwhile;
+   reported between them 1.7-4.7 m off for the 4 s until their blobs became one). Parts that were one
+   crowd in the last frame both were parts in stay one while such a drift has not yet latched them two
+   (step 3): a crowd's blob cut in two drifts so for a few frames as the cut opens or heals (tuning
+   seed 102 of real-alt60-lm6-winding: its two parts reported as two crowds, 2.5-3.5 m off, for 7
+   frames), while two crowds that were two stay two meanwhile;
 3. what is learnt sticks while both tracks live (:class:`GroupingState`): parts once ``apart_m`` or more
    apart, or moving apart or together in ``apart_frames`` frames in a row, stay two crowds. Two crowds
    that close in slowly, or part again after walking as one blob, are then not joined by a frame in
