@@ -270,7 +270,8 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
         if far[i, j]:
             apart.add(pair)
             continue
-        rel = _rel_speed_m_s(trails[i], trails[j], stamp_s, cfg)
+        fit = _distance_slope(trails[i], trails[j], stamp_s, cfg)
+        rel = _significant_speed(fit, cfg.significance)
         if rel > cfg.max_rel_speed_m_s:
             new_streak[pair] = streak.get(pair, 0) + 1
             if new_streak[pair] >= cfg.apart_frames:
@@ -279,8 +280,7 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
                 del new_streak[pair]
             elif pair in joined:       # one crowd the last frame: one until the drift latches (step 2)
                 parent[root(j)] = root(i)
-        elif not two[i, j] or _rel_speed_m_s(trails[i], trails[j], stamp_s, cfg, cfg.two_upper_k
-                                             ) <= cfg.max_rel_speed_m_s:
+        elif not two[i, j] or (fit is not None and abs(fit[0]) + cfg.two_upper_k * fit[1] <= cfg.max_rel_speed_m_s):
             parent[root(j)] = root(i)       # not significant, or NaN (not seen apart long enough): one crowd;
                                             # but parts of two crowds only once seen not to drift
     return [root(i) for i in range(n)], frozenset(apart), new_streak, frozenset(drifted & apart)
@@ -291,22 +291,35 @@ def _trail_since(track: CrowdTrack, since_s: float) -> dict:
     return {k: (s[1], s[2]) for s in track.trail if (k := round(s[0], 3)) > since_s}
 
 
-def _rel_speed_m_s(a: dict, b: dict, stamp_s: float, cfg: GroupingConfig, upper_k: float | None = None) -> float:
+def _rel_speed_m_s(a: dict, b: dict, stamp_s: float, cfg: GroupingConfig) -> float:
     """How fast the distance between two parts changes, m/s (0 when not significant; NaN when they were
-    not seen apart long enough); with ``upper_k``, as fast as it may change: the slope's size plus that
-    many standard errors, significant or not."""
+    not seen apart long enough)."""
+    return _significant_speed(_distance_slope(a, b, stamp_s, cfg), cfg.significance)
+
+
+def _significant_speed(fit: tuple[float, float] | None, significance: float) -> float:
+    """The size of a fitted slope (:func:`_distance_slope`), 0 when under ``significance`` standard errors,
+    NaN for no fit."""
+    if fit is None:
+        return float("nan")
+    slope, stderr = fit
+    return abs(slope) if abs(slope) > significance * stderr else 0.0
+
+
+def _distance_slope(a: dict, b: dict, stamp_s: float, cfg: GroupingConfig) -> tuple[float, float] | None:
+    """The slope (m/s) of a straight line fitted to the distance between two parts (trails as
+    :func:`_trail_since`) in the frames of the last ``window_s`` both were seen, and its standard error;
+    None when they were not seen apart long enough."""
     both = [s for s in sorted(set(a) & set(b)) if s > stamp_s - cfg.window_s - 1e-6]
     if len(both) < 5 or both[-1] - both[0] < cfg.min_span_s - 1e-6:
-        return float("nan")
+        return None
     t = np.array(both) - both[-1]
     dist = np.array([np.hypot(*np.subtract(a[s], b[s])) for s in both])
     tc = t - t.mean()
     slope = (tc * (dist - dist.mean())).sum() / (tc ** 2).sum()
     resid = dist - dist.mean() - slope * tc
     stderr = np.sqrt((resid ** 2).sum() / (len(t) - 2) / (tc ** 2).sum())
-    if upper_k is not None:
-        return float(abs(slope) + upper_k * stderr)
-    return float(abs(slope)) if abs(slope) > cfg.significance * stderr else 0.0
+    return float(slope), float(stderr)
 
 
 def _line_fit(trail: tuple[tuple[float, float, float], ...], min_points: int):
@@ -554,6 +567,8 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
         if out[k].crowd_id == out[k].track.track_id:
             last.pop(out[k].crowd_id, None)
     for k, held in inside.items():
+        if k in hidden:      # reported as the crowd whose blob it took, not as itself
+            continue
         out[k] = replace(out[k], estimate=replace(out[k].estimate, radius95_m=_holding_r95(
             out[k].estimate, [last[out[k].crowd_id]] + list(held), stamp_s, cfg)))
     return ([r for k, r in enumerate(out) if k not in hidden], last, alias, coasted,
