@@ -32,7 +32,11 @@ Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale``
    pass changes several pixels alike, and their sum stands out where noise of either sign cancels
    (:meth:`MotionDetector._box_moving`). It also sees still edges that flicker, as OpenCV's
    anti-aliased fill draws them (the simulator's ``lens.objects = "opencv"``; docs/results-worlds.md,
-   session 25): a real lens integrates each pixel's area, as the simulator now does by default;
+   session 25): a real lens integrates each pixel's area, as the simulator now does by default.
+   With ``lag_s`` > 0 a pixel has also moved where this frame differs, by the per-pixel test, both from
+   the frame ``lag_s`` ago and from the one twice as long ago (:meth:`MotionDetector._lagged_moving`):
+   a slow walker of little contrast changes only a thin crescent between two frames, but its whole
+   shape where it is now, and not where it was, after a few;
 4. a motion history: the pixels that moved in the last ``history_s`` seconds, warped along with the
    camera so it stays registered, so that a crowd whose members move little per frame stays one blob
    (only the box around recent motion is warped: the rest is "long ago" and stays so);
@@ -116,6 +120,9 @@ class MotionConfig:
     box_k: float = 0.0                 # > 0 (with gradient_gain): a pixel also moved where the signed difference's
     box_floor: float = 3.0             #   3 x 3 mean passes box_k times its own measured noise (at least
                                        #   box_floor) plus gradient_gain times the mean range (step 3)
+    lag_s: float = 0.0                 # > 0: a pixel also moved where this frame differs, by step 3's per-pixel
+                                       #   test, both from the frame this long ago and from the one twice as long
+                                       #   ago (step 3; 0: only the last frame is compared)
     history_s: float = 0.4             # at most 2.5 s (the history counts in 10 ms steps, in a byte)
     compensate_max_scale: float = 0.5  # camera motion is fitted on a copy at most this scale of the input
     merge_px: int = 9                  # closing kernel (processed pixels): joins a crowd's members
@@ -146,6 +153,8 @@ class MotionConfig:
             raise ValueError(f"split_scales must be factors >= 1 of split_px, got {self.split_scales}")
         if not 0.05 <= self.process_scale <= 1.0:
             raise ValueError(f"process_scale must be in [0.05, 1], got {self.process_scale}")
+        if not 0.0 <= self.lag_s <= 1.0:
+            raise ValueError(f"lag_s must be in [0, 1], got {self.lag_s}")
         if not (self.stray_reach >= 0.0 and 0.0 < self.stray_min_share <= 1.0):
             raise ValueError(f"stray_reach must be >= 0 and stray_min_share in (0, 1], got "
                              f"{self.stray_reach}, {self.stray_min_share}")
@@ -453,6 +462,8 @@ class MotionDetector:
         self._age_box: tuple[int, int, int, int] | None = None   # where the motion history holds anything
         self._followed: dict = {}                 # carve id -> its point in the previous frame (processed px)
         self._pending: _Registered | None = None   # this frame, registered ahead of update()
+        # the frames before this one, for step 3's lagged test: (stamp, processed frame, H onto this frame)
+        self._older: list[tuple[float, np.ndarray, np.ndarray]] = []
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
         # a square closing: it joins members up to merge_px apart, and costs the same at any size
         self._k_close = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.merge_px, cfg.merge_px))
@@ -466,6 +477,7 @@ class MotionDetector:
         self._last_H = self._older_H = None
         self._followed = {}
         self._pending = None
+        self._older = []
 
     def moved_near(self, xy_px: np.ndarray) -> np.ndarray | None:
         """(N,) bool: whether each full-resolution point lies on what moved in the previous frame (its
@@ -517,10 +529,14 @@ class MotionDetector:
             self._age[:] = 255  # lost registration: the history is no longer aligned
             self._age_box = None
             self._followed = {}
+            self._older = []
             return MotionResult.empty(reg)
         h, w = curr.shape
         warp = _warper(reg.H_curr_from_prev, w, h)
         moving = self._moving(prev, curr, reg.H_curr_from_prev, warp)
+        if self.cfg.lag_s > 0:
+            self._keep_older(prev, stamp_s - dt_s, reg.H_curr_from_prev, stamp_s)
+            cv2.bitwise_or(moving, self._lagged_moving(curr, stamp_s), dst=moving)
         recent = self._history(moving, warp, reg.H_curr_from_prev, dt_s)
         joined = cv2.morphologyEx(recent, cv2.MORPH_CLOSE, self._k_close)
         # the next frame takes no corners on what moves (a corner half a kernel from a blob is on it)
@@ -608,6 +624,7 @@ class MotionDetector:
             self._age = np.full(curr.shape, 255, np.uint8)
             self._kept = self._age_box = self._last_H = self._older_H = None
             self._busy = None
+            self._older = []
         else:
             reg = self._register(prev_c, curr_c, self._busy)
         self._pending = _Registered(stamp_s, prev, curr, dt_s, reg)
@@ -668,14 +685,21 @@ class MotionDetector:
     def _moving(self, prev: np.ndarray, curr: np.ndarray, M: np.ndarray, warp) -> np.ndarray:
         """Step 3: the pixels that changed after compensation, where the previous frame covers this one,
         with speckle removed (``speckle``) and the frame's own edge cleared."""
-        cfg = self.cfg
-        h, w = curr.shape
-        warped = warp(prev, cv2.INTER_LINEAR, 0)
-        # where the previous frame covers this one: its corners warped, minus a border
+        valid = self._seen_by(M, *curr.shape[::-1])
+        return self._cleaned(self._changed(curr, warp(prev, cv2.INTER_LINEAR, 0), valid))
+
+    def _seen_by(self, M: np.ndarray, w: int, h: int) -> np.ndarray:
+        """Where an earlier frame, warped onto this one by M, covers it: its corners warped, minus a border."""
         corners = cv2.perspectiveTransform(np.float32([[[0, 0]], [[w - 1, 0]], [[w - 1, h - 1]], [[0, h - 1]]]), M)
         valid = np.zeros((h, w), np.uint8)
         cv2.fillConvexPoly(valid, np.round(corners.reshape(-1, 2) * 16).astype(np.int32), 255, cv2.LINE_8, 4)
-        valid = cv2.erode(valid, np.ones((2 * cfg.border_px + 1, 2 * cfg.border_px + 1), np.uint8))
+        b = 2 * self.cfg.border_px + 1
+        return cv2.erode(valid, np.ones((b, b), np.uint8))
+
+    def _changed(self, curr: np.ndarray, warped: np.ndarray, valid: np.ndarray, box: bool = True) -> np.ndarray:
+        """Step 3's test of ``curr`` against an earlier frame ``warped`` onto it, inside ``valid`` (where the
+        noise is measured too); the box test only with ``box``."""
+        cfg = self.cfg
         diff = cv2.absdiff(curr, warped)
         if cfg.gradient_gain > 0:
             # a registration off by a fraction of a pixel changes a pixel by that fraction of its
@@ -685,11 +709,15 @@ class MotionDetector:
             g = cv2.min(_local_range(curr), _local_range(warped))
             limit = cv2.min(cv2.convertScaleAbs(g, alpha=cfg.gradient_gain, beta=floor), int(cfg.diff_threshold))
             moving = cv2.compare(diff, limit, cv2.CMP_GT)
-            if cfg.box_k > 0:
+            if cfg.box_k > 0 and box:
                 cv2.bitwise_or(moving, self._box_moving(curr, warped, g, valid), dst=moving)
         else:
             _, moving = cv2.threshold(diff, cfg.diff_threshold, 255, cv2.THRESH_BINARY)
-        cv2.bitwise_and(moving, valid, dst=moving)
+        return cv2.bitwise_and(moving, valid)
+
+    def _cleaned(self, moving: np.ndarray) -> np.ndarray:
+        """Step 3's mask with speckle removed (``speckle``) and the frame's own edge cleared."""
+        cfg = self.cfg
         if cfg.speckle == "open":
             moving = cv2.morphologyEx(moving, cv2.MORPH_OPEN, self._k_open)
         else:
@@ -703,6 +731,39 @@ class MotionDetector:
         moving[:, :b] = 0
         moving[:, -b:] = 0
         return moving
+
+    def _keep_older(self, prev: np.ndarray, prev_stamp_s: float, M: np.ndarray, stamp_s: float) -> None:
+        """The frames step 3's lagged test compares with, each with its warp onto this frame: the last
+        one added (``M`` onto this frame), every older one's warp carried on by ``M``, those older than
+        twice ``lag_s`` (and a frame) dropped."""
+        keep_s = 2.0 * self.cfg.lag_s + max(stamp_s - prev_stamp_s, 0.0)
+        self._older = [(t, f, M @ H) for t, f, H in self._older if stamp_s - t <= keep_s + 1e-6]
+        self._older.append((prev_stamp_s, prev, M))
+
+    def _lagged_moving(self, curr: np.ndarray, stamp_s: float) -> np.ndarray:
+        """Step 3's lagged test: where this frame differs both from the frame ``lag_s`` ago and from the one
+        twice as long ago (the kept frames nearest those times), each by step 3's per-pixel test. A walker
+        of little contrast that moves a pixel a frame changes only the crescent it steps into between two
+        frames, which may pass no test; ``lag_s`` on it has stepped off its old place, so its whole shape
+        differs from both frames where it is now, and where it was from one only (no ghost behind it).
+        The box test is left out here: a whole shape's pixels pass alone (with it, on tuning seeds 1-3, the
+        paper's 200 m scenario was 0.054 m worse and the real-imagery worlds within 0.01 m;
+        docs/results-worlds.md, session 32). Nothing (all zero) until frames that far back are kept."""
+        h, w = curr.shape
+        lag = self.cfg.lag_s
+        out, used_s = None, stamp_s
+        if not self._older:
+            return np.zeros((h, w), np.uint8)
+        for want_s in (lag, 2.0 * lag):
+            t, old, H = min(self._older, key=lambda e: abs(stamp_s - e[0] - want_s))
+            if stamp_s - t < 0.75 * want_s or t >= used_s:
+                return np.zeros((h, w), np.uint8)
+            used_s = t
+            warped = _warper(H, w, h)(old, cv2.INTER_LINEAR, 0)
+            valid = self._seen_by(H, w, h)
+            m = self._changed(curr, warped, valid, box=False)
+            out = m if out is None else cv2.bitwise_and(out, m)
+        return self._cleaned(out)
 
     def _box_moving(self, curr: np.ndarray, warped: np.ndarray, g: np.ndarray, valid: np.ndarray) -> np.ndarray:
         """Step 3's second test: where the signed difference's 3 x 3 sum passes ``box_k`` times its own

@@ -46,7 +46,8 @@ class UavVisionConfig:
     crowd_max_m: float = 40.0
     min_crowd_m2: float = 6.0                 # moving ground area of about three people in the history
     motion: MotionConfig = field(default_factory=lambda: MotionConfig(speckle="neighbours", max_corners=200, lk_window_px=15,
-                                                                      gradient_gain=0.12, stray_reach=1.0, box_k=5.0))
+                                                                      gradient_gain=0.12, stray_reach=1.0, box_k=5.0,
+                                                                      lag_s=0.2))
     landmarks: LandmarkConfig = field(default_factory=LandmarkConfig)
 
     def __post_init__(self) -> None:
