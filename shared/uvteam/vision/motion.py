@@ -535,7 +535,7 @@ class MotionDetector:
         warp = _warper(reg.H_curr_from_prev, w, h)
         moving = self._moving(prev, curr, reg.H_curr_from_prev, warp)
         if self.cfg.lag_s > 0:
-            self._keep_older(prev, stamp_s - dt_s, reg.H_curr_from_prev, stamp_s)
+            self._keep_older(prev, reg.H_curr_from_prev, stamp_s, dt_s)
             cv2.bitwise_or(moving, self._lagged_moving(curr, stamp_s), dst=moving)
         recent = self._history(moving, warp, reg.H_curr_from_prev, dt_s)
         joined = cv2.morphologyEx(recent, cv2.MORPH_CLOSE, self._k_close)
@@ -732,13 +732,13 @@ class MotionDetector:
         moving[:, -b:] = 0
         return moving
 
-    def _keep_older(self, prev: np.ndarray, prev_stamp_s: float, M: np.ndarray, stamp_s: float) -> None:
+    def _keep_older(self, prev: np.ndarray, M: np.ndarray, stamp_s: float, dt_s: float) -> None:
         """The frames step 3's lagged test compares with, each with its warp onto this frame: the last
-        one added (``M`` onto this frame), every older one's warp carried on by ``M``, those older than
-        twice ``lag_s`` (and a frame) dropped."""
-        keep_s = 2.0 * self.cfg.lag_s + max(stamp_s - prev_stamp_s, 0.0)
+        one added (``prev``, ``dt_s`` before, ``M`` onto this frame), every older one's warp carried on by
+        ``M``, those older than twice ``lag_s`` (and a frame) dropped."""
+        keep_s = 2.0 * self.cfg.lag_s + max(dt_s, 0.0)
         self._older = [(t, f, M @ H) for t, f, H in self._older if stamp_s - t <= keep_s + 1e-6]
-        self._older.append((prev_stamp_s, prev, M))
+        self._older.append((stamp_s - dt_s, prev, M))
 
     def _lagged_moving(self, curr: np.ndarray, stamp_s: float) -> np.ndarray:
         """Step 3's lagged test: where this frame differs both from the frame ``lag_s`` ago and from the one
