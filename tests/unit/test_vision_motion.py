@@ -553,3 +553,41 @@ def test_the_lagged_test_marks_where_a_walker_is_not_where_it_was():
     assert len(xs) and xs.min() >= x - 4 and xs.max() <= x + 3 and ys.min() >= 116 and ys.max() <= 123
     with pytest.raises(ValueError):
         MotionConfig(lag_s=1.5)
+
+
+def _two_crowds_and_a_faint_walker_between(cfg, steps=14, seed=5):
+    """Smooth ground, the camera drifting by fractions of a pixel; two 3 x 3 crowds (walkers of 12 px,
+    20 px apart, much contrast) walk 2 px a frame down side by side, their nearest walkers 24 px apart;
+    in the gap a faint walker (4 x 60 px, 14 grey levels) steps half a pixel a frame sideways, seen only
+    by the lagged test. Returns the last frame's blobs and the crowds' centres then."""
+    rng = np.random.default_rng(seed)
+    t = cv2.GaussianBlur(rng.normal(0, 1, (760, 1320)), (0, 0), 6.0)
+    ground = 90.0 + 30 * t / t.std()
+    left_x, right_x = 500.0, 500.0 + 2 * 26 + 24
+    det = MotionDetector(replace(cfg, merge_px=51, split_px=15, min_area_px=300.0, speckle="neighbours",
+                                 process_scale=1.0))
+    for k in range(steps):
+        img = cv2.warpAffine(ground, np.float32([[1, 0, -20 - 0.37 * k], [0, 1, -20 + 0.23 * k]]), (1280, 720))
+        faint = np.zeros((720, 1280))
+        x0 = (left_x + right_x) / 2 - 5.5 + 0.5 * k
+        faint[350:410, int(x0):int(x0) + 4] = 14.0
+        img -= cv2.warpAffine(faint, np.float32([[1, 0, x0 - int(x0)], [0, 1, 0]]), (1280, 720))
+        for cx in (left_x, right_x):
+            for i in (-1, 0, 1):
+                for j in (-1, 0, 1):
+                    cv2.circle(img, (int(round(cx + 20 * i)), int(round(360 + 20 * j + 2 * k))), 6, 20.0, -1)
+        b = det.update(cv2.cvtColor(np.clip(img + rng.normal(0, 1.0, img.shape), 0, 255).astype(np.uint8),
+                                    cv2.COLOR_GRAY2BGR), 0.1 * k)
+    y = 360.0 + 2 * (steps - 1)
+    return b, np.array([[left_x, y], [right_x, y]])
+
+
+@pytest.mark.parametrize("lag_s", [0.0, 0.2])
+def test_what_only_the_lagged_test_sees_joins_no_two_crowds(lag_s):
+    # the faint walker's lagged pixels close the gap at the finer kernel (the crowds were then one blob,
+    # between them); step 6 splits on the two-frame test's history, so the crowds stay two, each with
+    # the faint walker's pixels nearest it (pulled in by a few px)
+    b, crowds = _two_crowds_and_a_faint_walker_between(MotionConfig(gradient_gain=0.12, lag_s=lag_s))
+    assert len(b) == 2
+    xy = b.xy_px[np.argsort(b.xy_px[:, 0])]
+    assert np.abs(xy - crowds).max() < (1.5 if lag_s == 0.0 else 5.0), xy

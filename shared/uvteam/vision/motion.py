@@ -58,8 +58,13 @@ Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale``
    the nearest crowd. The coarser kernels keep a small, loose crowd whole where the finest one breaks it
    into pieces each too small to count, which then joined the big crowd beside it. A blob with a
    vehicle in it is split by the finest kernel only (the walkers a vehicle cuts off are no crowd).
-   Whether two such groups are two crowds or one with a gap shows only over time, in how they move:
-   :mod:`uvteam.crowds` joins them again unless they drift apart or together;
+   The groups are sought in the history of step 3's two-frame test alone (kept beside the full one
+   when ``lag_s`` > 0): what only the lagged test sees (a faint walker's whole shape) fills the gaps
+   between crowds, and two crowds walking through each other were one blob between them
+   (field-alt100-lm6 seed 8, 7.1 m; docs/results-worlds.md, session 33). Each component's pixels, the
+   lagged test's too, still go to the nearest group. Whether two such groups are two crowds or one
+   with a gap shows only over time, in how they move: :mod:`uvteam.crowds` joins them again unless
+   they drift apart or together;
 7. a crowd's strays (``stray_reach`` > 0): pieces of the history's moving pixels that are in no blob,
    too small for a crowd but at least ``stray_min_share`` of its least area (a walker or a few), whose
    centre lies within ``stray_reach`` merge kernels of a crowd blob's box and not within two carve radii
@@ -122,7 +127,8 @@ class MotionConfig:
                                        #   box_floor) plus gradient_gain times the mean range (step 3)
     lag_s: float = 0.0                 # > 0: a pixel also moved where this frame differs, by step 3's per-pixel
                                        #   test, both from the frame this long ago and from the one twice as long
-                                       #   ago (step 3; 0: only the last frame is compared)
+                                       #   ago (step 3; 0: only the last frame is compared); step 6 splits
+                                       #   on the two-frame test's own history
     history_s: float = 0.4             # at most 2.5 s (the history counts in 10 ms steps, in a byte)
     compensate_max_scale: float = 0.5  # camera motion is fitted on a copy at most this scale of the input
     merge_px: int = 9                  # closing kernel (processed pixels): joins a crowd's members
@@ -460,6 +466,9 @@ class MotionDetector:
         self._last_H: np.ndarray | None = None  # the last camera motion, in the fit's pixels
         self._older_H: np.ndarray | None = None  # the one before
         self._age_box: tuple[int, int, int, int] | None = None   # where the motion history holds anything
+        # with the lagged test: the history of the two-frame test alone, which step 6 splits on
+        self._cut_age: np.ndarray | None = None
+        self._cut_box: tuple[int, int, int, int] | None = None
         self._followed: dict = {}                 # carve id -> its point in the previous frame (processed px)
         self._pending: _Registered | None = None   # this frame, registered ahead of update()
         # the frames before this one, for step 3's lagged test: (stamp, processed frame, H onto this frame)
@@ -474,6 +483,7 @@ class MotionDetector:
 
     def reset(self) -> None:
         self._prev = self._prev_c = self._stamp_s = self._age = self._busy = self._kept = self._age_box = None
+        self._cut_age = self._cut_box = None
         self._last_H = self._older_H = None
         self._followed = {}
         self._pending = None
@@ -527,17 +537,24 @@ class MotionDetector:
             return MotionResult.empty()
         if reg.H_curr_from_prev is None:
             self._age[:] = 255  # lost registration: the history is no longer aligned
-            self._age_box = None
+            self._age_box = self._cut_age = self._cut_box = None
             self._followed = {}
             self._older = []
             return MotionResult.empty(reg)
         h, w = curr.shape
         warp = _warper(reg.H_curr_from_prev, w, h)
         moving = self._moving(prev, curr, reg.H_curr_from_prev, warp)
+        cut = None
         if self.cfg.lag_s > 0:
             self._keep_older(prev, reg.H_curr_from_prev, stamp_s, dt_s)
-            cv2.bitwise_or(moving, self._lagged_moving(curr, stamp_s), dst=moving)
+            if self._cut_age is None:
+                self._cut_age = np.full((h, w), 255, np.uint8)
+            cut, self._cut_age, self._cut_box = self._aged(moving, warp, reg.H_curr_from_prev, dt_s,
+                                                           self._cut_age, self._cut_box)
+            moving = cv2.bitwise_or(moving, self._lagged_moving(curr, stamp_s))
         recent = self._history(moving, warp, reg.H_curr_from_prev, dt_s)
+        if cut is None:
+            cut = recent
         joined = cv2.morphologyEx(recent, cv2.MORPH_CLOSE, self._k_close)
         # the next frame takes no corners on what moves (a corner half a kernel from a blob is on it)
         self._busy = cv2.dilate(joined, self._k_close)
@@ -546,7 +563,7 @@ class MotionDetector:
         r2 = (carve_radius_px * s) ** 2
         tails = self._tails(carve, carve_ids, reg.H_curr_from_prev, dt_s, carve_radius_px * s)
         comps = [part for x, y, comp in self._components(joined, carve)
-                 for part in self._split(comp, recent[y:y + comp.shape[0], x:x + comp.shape[1]], x, y, carve, tails,
+                 for part in self._split(comp, cut[y:y + comp.shape[0], x:x + comp.shape[1]], x, y, carve, tails,
                                          r2, 1.0 / s)]
         xy, boxes, areas, carved = [], [], [], []
         for x, y, bw, bh, comp in comps:
@@ -622,7 +639,7 @@ class MotionDetector:
         reg = None
         if prev is None or prev.shape != curr.shape:
             self._age = np.full(curr.shape, 255, np.uint8)
-            self._kept = self._age_box = self._last_H = self._older_H = None
+            self._kept = self._age_box = self._last_H = self._older_H = self._cut_age = self._cut_box = None
             self._busy = None
             self._older = []
         else:
@@ -785,7 +802,14 @@ class MotionDetector:
     def _history(self, moving: np.ndarray, warp, M: np.ndarray, dt_s: float) -> np.ndarray:
         """Step 4: the motion history, kept registered with the camera: each pixel's time since it last
         moved, in AGE_UNIT_S steps (uint8, saturating at "long ago"), warped along with the camera.
-        Returns the pixels that moved within ``history_s``; their ages stay in ``self._age``.
+        Returns the pixels that moved within ``history_s``; their ages stay in ``self._age``."""
+        recent, self._age, self._age_box = self._aged(moving, warp, M, dt_s, self._age, self._age_box)
+        return recent
+
+    def _aged(self, moving: np.ndarray, warp, M: np.ndarray, dt_s: float, last: np.ndarray,
+              box: tuple[int, int, int, int] | None) -> tuple[np.ndarray, np.ndarray, tuple[int, int, int, int]]:
+        """One motion history (step 4) carried on by a frame: (the pixels that moved within ``history_s``,
+        every pixel's age, the box round what moved).
 
         An age past ``history_s`` is kept as "long ago" (it only grows until the pixel moves again, and
         then it is 0), so the map is "long ago" but where something moved lately, and only the box
@@ -793,19 +817,18 @@ class MotionDetector:
         cfg = self.cfg
         h, w = moving.shape
         age = np.full((h, w), 255, np.uint8)
-        box = self._age_box
         roi = _warped_box(M, box, w, h) if box is not None and box[2] > 0 else None
         if roi is not None:
             x0, y0, x1, y1 = roi
-            age[y0:y1, x0:x1] = warp(self._age, cv2.INTER_NEAREST, 255, roi)
+            age[y0:y1, x0:x1] = warp(last, cv2.INTER_NEAREST, 255, roi)
         age = cv2.add(age, int(min(255, max(0, round(dt_s / AGE_UNIT_S)))))
         age = cv2.bitwise_and(age, cv2.bitwise_not(moving))   # 0 where it moves now
         _, recent = cv2.threshold(age, int(round(cfg.history_s / AGE_UNIT_S)), 255, cv2.THRESH_BINARY_INV)
-        self._age = cv2.bitwise_or(age, cv2.bitwise_not(recent))
-        self._age_box = cv2.boundingRect(recent)
+        age = cv2.bitwise_or(age, cv2.bitwise_not(recent))
+        box = cv2.boundingRect(recent)
         if cfg.speckle == "neighbours":
             recent = cv2.morphologyEx(recent, cv2.MORPH_OPEN, self._k_open)
-        return recent
+        return recent, age, box
 
     def _components(self, joined: np.ndarray, carve: np.ndarray) -> list[tuple[int, int, np.ndarray]]:
         """Step 5: the connected components of the joined mask that can hold a blob, each as (x, y, its
@@ -894,7 +917,8 @@ class MotionDetector:
 
     def _split(self, comp: np.ndarray, recent: np.ndarray, x: int, y: int, carve: np.ndarray, tails: np.ndarray,
                r2: float, inv: float) -> list[tuple[int, int, int, int, np.ndarray]]:
-        """One joined component (its box at x, y) as one or more crowds' components (step 6)."""
+        """One joined component (its box at x, y) as one or more crowds' components (step 6), its groups
+        sought among ``recent``'s pixels (the two-frame test's history when the lagged test is on)."""
         cfg = self.cfg
         bh, bw = comp.shape
         whole = [(x, y, bw, bh, comp)]
