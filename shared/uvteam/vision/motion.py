@@ -547,8 +547,6 @@ class MotionDetector:
         cut = None
         if self.cfg.lag_s > 0:
             self._keep_older(prev, reg.H_curr_from_prev, stamp_s, dt_s)
-            if self._cut_age is None:
-                self._cut_age = np.full((h, w), 255, np.uint8)
             cut, self._cut_age, self._cut_box = self._aged(moving, warp, reg.H_curr_from_prev, dt_s,
                                                            self._cut_age, self._cut_box)
             moving = cv2.bitwise_or(moving, self._lagged_moving(curr, stamp_s))
@@ -806,10 +804,11 @@ class MotionDetector:
         recent, self._age, self._age_box = self._aged(moving, warp, M, dt_s, self._age, self._age_box)
         return recent
 
-    def _aged(self, moving: np.ndarray, warp, M: np.ndarray, dt_s: float, last: np.ndarray,
+    def _aged(self, moving: np.ndarray, warp, M: np.ndarray, dt_s: float, last: np.ndarray | None,
               box: tuple[int, int, int, int] | None) -> tuple[np.ndarray, np.ndarray, tuple[int, int, int, int]]:
         """One motion history (step 4) carried on by a frame: (the pixels that moved within ``history_s``,
-        every pixel's age, the box round what moved).
+        every pixel's age, the box round what moved). ``last`` (the ages before) is read only inside
+        ``box``: with no box (a new history) it may be None.
 
         An age past ``history_s`` is kept as "long ago" (it only grows until the pixel moves again, and
         then it is 0), so the map is "long ago" but where something moved lately, and only the box
