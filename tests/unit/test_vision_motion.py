@@ -501,15 +501,15 @@ def test_the_box_test_sees_a_walker_too_faint_for_any_pixel_and_no_shimmer():
         MotionConfig(box_k=-1.0)
 
 
-def _slow_faint_walker_frames(cfg, steps=16, seed=5):
+def _slow_faint_walker_frames(cfg, steps=16, seed=5, contrast=14.0):
     """A camera drifting by fractions of a pixel over smooth ground (pixel noise 1 grey level); a 4 x 4 px
-    walker 14 grey levels darker walks half a pixel a frame. Yields each frame's blobs and the walker's
-    place, from the third frame on."""
+    walker ``contrast`` grey levels darker walks half a pixel a frame. Yields each frame's blobs and the
+    walker's place, from the third frame on."""
     rng = np.random.default_rng(seed)
     t = cv2.GaussianBlur(rng.normal(0, 1, (760, 1320)), (0, 0), 6.0)
     ground = 90.0 + 30 * t / t.std()
     walker = np.zeros((720, 1280))
-    walker[358:362, 638:642] = 14.0
+    walker[358:362, 638:642] = contrast
     det = MotionDetector(replace(cfg, speckle="neighbours", process_scale=1.0, min_area_px=10.0))
     for k in range(steps):
         img = cv2.warpAffine(ground, np.float32([[1, 0, -20 - 0.37 * k], [0, 1, -20 + 0.23 * k]]), (1280, 720))
@@ -536,6 +536,27 @@ def test_the_lagged_test_sees_a_slow_faint_walker():
             assert abs(b.xy_px[0, 0] - x) < 3 and abs(b.xy_px[0, 1] - y) < 3
             seen += 1
     assert seen >= 6
+
+
+def test_the_lagged_test_s_own_floor_sees_a_fainter_walker():
+    # 11 grey levels against the 14 above: with the two-frame test's floor (8) and noise factor (5) the
+    # lagged test sees the walker in no frame, with its own (6, 4) in most; a pixel must pass both of its
+    # comparisons, so each may lie nearer the noise (a difference's sigma here is 1.4 grey levels)
+    from uvteam.vision.uav import UavVisionConfig
+    shipped = UavVisionConfig(focal_px=790.0, colors=("red",)).motion
+    assert (shipped.lag_diff_floor, shipped.lag_noise_k) == (6.0, 4.0)
+    as_two_frame = replace(shipped, lag_diff_floor=shipped.diff_floor, lag_noise_k=shipped.noise_k)
+    walk = dict(contrast=11.0, seed=7, steps=24)
+    assert all(len(b) == 0 for _, b, _ in _slow_faint_walker_frames(as_two_frame, **walk))
+    seen = 0
+    for k, b, (x, y) in _slow_faint_walker_frames(shipped, **walk):
+        assert len(b) <= 1
+        if len(b):
+            assert abs(b.xy_px[0, 0] - x) < 3 and abs(b.xy_px[0, 1] - y) < 3
+            seen += 1
+    assert seen >= 10
+    with pytest.raises(ValueError):
+        MotionConfig(lag_noise_k=-1.0)
 
 
 def test_the_lagged_test_marks_where_a_walker_is_not_where_it_was():

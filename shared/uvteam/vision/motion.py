@@ -36,7 +36,8 @@ Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale``
    With ``lag_s`` > 0 a pixel has also moved where this frame differs, by the per-pixel test, both from
    the frame ``lag_s`` ago and from the one twice as long ago (:meth:`MotionDetector._lagged_moving`):
    a slow walker of little contrast changes only a thin crescent between two frames, but its whole
-   shape where it is now, and not where it was, after a few;
+   shape where it is now, and not where it was, after a few. As a pixel must pass both comparisons,
+   each has its own, lower floor and noise factor (``lag_diff_floor``, ``lag_noise_k``);
 4. a motion history: the pixels that moved in the last ``history_s`` seconds, warped along with the
    camera so it stays registered, so that a crowd whose members move little per frame stays one blob
    (only the box around recent motion is warped: the rest is "long ago" and stays so);
@@ -129,6 +130,8 @@ class MotionConfig:
                                        #   test, both from the frame this long ago and from the one twice as long
                                        #   ago (step 3; 0: only the last frame is compared); step 6 splits
                                        #   on the two-frame test's own history
+    lag_diff_floor: float = 6.0        # the lagged test's own floor and noise_k: it ANDs two comparisons, so
+    lag_noise_k: float = 4.0           #   each may pass nearer the noise (step 3)
     history_s: float = 0.4             # at most 2.5 s (the history counts in 10 ms steps, in a byte)
     compensate_max_scale: float = 0.5  # camera motion is fitted on a copy at most this scale of the input
     merge_px: int = 9                  # closing kernel (processed pixels): joins a crowd's members
@@ -148,9 +151,11 @@ class MotionConfig:
         if not 0.05 <= self.compensate_max_scale <= 1.0:
             raise ValueError(f"compensate_max_scale must be in [0.05, 1], got {self.compensate_max_scale}")
         if not (self.gradient_gain >= 0.0 and self.diff_floor >= 0.0 and self.noise_k >= 0.0
-                and self.box_k >= 0.0 and self.box_floor >= 0.0):
-            raise ValueError(f"gradient_gain, diff_floor, noise_k, box_k and box_floor must be >= 0, got "
-                             f"{self.gradient_gain}, {self.diff_floor}, {self.noise_k}, {self.box_k}, {self.box_floor}")
+                and self.box_k >= 0.0 and self.box_floor >= 0.0
+                and self.lag_diff_floor >= 0.0 and self.lag_noise_k >= 0.0):
+            raise ValueError(f"gradient_gain, diff_floor, noise_k, box_k, box_floor, lag_diff_floor and lag_noise_k "
+                             f"must be >= 0, got {self.gradient_gain}, {self.diff_floor}, {self.noise_k}, "
+                             f"{self.box_k}, {self.box_floor}, {self.lag_diff_floor}, {self.lag_noise_k}")
         if self.speckle not in ("open", "neighbours"):
             raise ValueError(f"speckle must be 'open' or 'neighbours', got {self.speckle!r}")
         if self.model not in ("homography", "affine"):
@@ -711,20 +716,22 @@ class MotionDetector:
         b = 2 * self.cfg.border_px + 1
         return cv2.erode(valid, np.ones((b, b), np.uint8))
 
-    def _changed(self, curr: np.ndarray, warped: np.ndarray, valid: np.ndarray, box: bool = True) -> np.ndarray:
+    def _changed(self, curr: np.ndarray, warped: np.ndarray, valid: np.ndarray, lagged: bool = False) -> np.ndarray:
         """Step 3's test of ``curr`` against an earlier frame ``warped`` onto it, inside ``valid`` (where the
-        noise is measured too); the box test only with ``box``."""
+        noise is measured too). ``lagged``: one of the lagged test's two comparisons, with its own floor and
+        noise_k, and no box test."""
         cfg = self.cfg
         diff = cv2.absdiff(curr, warped)
         if cfg.gradient_gain > 0:
             # a registration off by a fraction of a pixel changes a pixel by that fraction of its
             # gradient: textured ground needs more change to have moved than flat ground. Where
             # something moved, one of the two frames shows the flat ground it left or covers
-            floor = max(cfg.diff_floor, cfg.noise_k * _robust_sigma(diff, valid))
+            base, k = (cfg.lag_diff_floor, cfg.lag_noise_k) if lagged else (cfg.diff_floor, cfg.noise_k)
+            floor = max(base, k * _robust_sigma(diff, valid))
             g = cv2.min(_local_range(curr), _local_range(warped))
             limit = cv2.min(cv2.convertScaleAbs(g, alpha=cfg.gradient_gain, beta=floor), int(cfg.diff_threshold))
             moving = cv2.compare(diff, limit, cv2.CMP_GT)
-            if cfg.box_k > 0 and box:
+            if cfg.box_k > 0 and not lagged:
                 cv2.bitwise_or(moving, self._box_moving(curr, warped, g, valid), dst=moving)
         else:
             _, moving = cv2.threshold(diff, cfg.diff_threshold, 255, cv2.THRESH_BINARY)
@@ -776,7 +783,7 @@ class MotionDetector:
             used_s = t
             warped = _warper(H, w, h)(old, cv2.INTER_LINEAR, 0)
             valid = self._seen_by(H, w, h)
-            m = self._changed(curr, warped, valid, box=False)
+            m = self._changed(curr, warped, valid, lagged=True)
             out = m if out is None else cv2.bitwise_and(out, m)
         return self._cleaned(out)
 
