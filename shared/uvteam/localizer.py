@@ -146,7 +146,7 @@ class LocalizerConfig:
     prior_growth_m_s: float = 2.0           # ... growing per second of its age (the camera moves and turns)
     suspect_sigmas: float = 4.0             # a 4-landmark fit this many sigmas from its prior is SUSPECT
     claim_radius_m: float = 2.5             # a UGV claims blobs this close to where it is (its size and trail)
-    moving_m_s: float = 0.5                 # a UGV reported faster than this moves: its label alone excuses no claim
+    moving_m_s: float = 0.2                 # a UGV reported faster than this moves: its label alone excuses no claim
     min_vehicle_blob_m2: float = 4.0        # a UGV's own blob smaller than this (m2) is a piece of it: the rest is claimed
     pose_bias_rate: float = 0.05            # how fast the pose's bias against landmark transforms is learnt
     learn_landmark_noise: bool = True       # widen the landmarks' declared noise by what the fits' residuals show
@@ -505,7 +505,9 @@ def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, Ugv
                 cfg: LocalizerConfig, pose_sigma_m: Callable[[np.ndarray], np.ndarray] | None = None) -> np.ndarray:
     """Phase 5a: (N,) bool, the blobs claimed by UGVs where the transform puts them (``ground_to_px``).
 
-    A UGV whose own blob was found there (within ``claim_radius_m``, or the gate) needs no claim: the
+    "There" is within ``claim_radius_m`` (or the gate) grown by the 95 % radius of the UGV's fix error:
+    the transform puts the fix where the fix is, and the vehicle's blob lies where the vehicle is.
+    A UGV whose own blob was found there needs no claim: the
     detector carved it out of whatever it drives through, so a crowd's blob beside it stays a crowd; so
     does one whose label was found there when a landmark fit stands behind the labels, unless its
     receiver reports it moving (over ``moving_m_s``): a moving UGV's label rides on a blob of its own,
@@ -528,11 +530,12 @@ def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, Ugv
     names = sorted(positions)
     en = np.array([positions[u].en_m for u in names])
     where_px = ground_to_px(en).tolist()
-    reach_m = np.full(len(names), cfg.claim_radius_m)
     label_px = _label_px(obs)
+    fix_sigma_m = np.array([positions[u].sigma_m for u in names])
     if pose_sigma_m is not None:
-        reach_m += R95_PER_SIGMA * np.hypot(pose_sigma_m(en), [positions[u].sigma_m for u in names])
+        fix_sigma_m = np.hypot(pose_sigma_m(en), fix_sigma_m)
         label_px = {}
+    reach_m = cfg.claim_radius_m + R95_PER_SIGMA * fix_sigma_m
     xy = blobs.xy_px
     own = dict(pairing.blob_of_ugv)
     piece: set[str] = set()     # UGVs whose own blob is less than a vehicle's: a label's patch, or a piece of it

@@ -281,6 +281,31 @@ def test_a_moving_ugv_whose_label_has_no_blob_of_its_own_claims_the_blob_beside_
     assert crowds == ([0, len(blobs) - 1] if red_blob_is_crowd else [len(blobs) - 1])
 
 
+@pytest.mark.parametrize("sigma_m, off_m, red_blob_is_crowd", [(1.0, 3.1, False), (0.0, 3.1, True), (1.0, 6.0, True)])
+def test_a_slow_ugv_s_blob_within_its_fix_error_is_claimed_beside_its_label(sigma_m, off_m, red_blob_is_crowd):
+    # real-alt60-lm6-gnss1 seed 4 at 5.8 s: red's receiver reports 0.43 m/s and a 1 m sigma; a patch of its
+    # color lies where its fix says (taken for its label), its motion blob 3.1 m off, where red truly is.
+    # The fit puts red's fix where the fix is, so red's claim reaches claim_radius_m and its fix's 95 %
+    # radius (2.5 + 2.45 m): the blob is red's. With an exact fix the same blob is beyond any reach of
+    # red's (a crowd 3.1 m from a UGV), and 6 m off it is beyond even a 1 m fix's
+    from dataclasses import replace
+    speed_m_s = 0.43
+    red = track_at(UGVS["red"], velocity=(speed_m_s, 0.0), sigma=sigma_m)
+    vel = np.tile([speed_m_s, 0.0], (len(red.fix_stamp_s), 1))
+    tracks = {u: track_at(en) for u, en in UGVS.items()}
+    tracks["red"] = UgvTrack(red.fix_stamp_s, red.fix_en_m, red.fix_sigma_m, fix_v_en_m_s=vel)
+    now = {**UGVS, "red": (UGVS["red"][0] + speed_m_s, 0.0)}     # where red's fix says it is at t = 1 s
+    obs = observation(1.0, ugvs=now)
+    px_per_m = CAM.focal_px / POSE.up_m
+    blobs = obs.blobs.xy_px.copy()
+    blobs[0] += (0.0, off_m * px_per_m)
+    obs = replace(frame_obs(1.0, obs.landmarks.as_dict(), blobs), px_per_m=px_per_m)
+    _, out = localize_step(LocalizerState(), obs, tracks, cfg())
+    assert out.quality == FitQuality.LEAST_SQUARES
+    crowds = sorted(c.blob_index for c in out.crowds)
+    assert crowds == ([0, len(blobs) - 1] if red_blob_is_crowd else [len(blobs) - 1])
+
+
 def test_every_blob_labelled_as_a_ugv_is_that_ugv_never_a_crowd():
     # the detector gave red two blobs, both centred on it (1000 and 300 px: a blob it split in two
     # pieces, each holding red's point, carves red out of each): both are red's, neither a crowd, and

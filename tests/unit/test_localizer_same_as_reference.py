@@ -6,6 +6,8 @@ pose fallback, hold, suspect fit, labelled blobs, plans, greedy solver or color 
 scenes take all of them. (Equal means: every discrete outcome the same; values to 1e-9 m, or to 1e-10 of
 their size beyond 1 km; transforms to 1e-12 as the recorded test.)"""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -148,10 +150,12 @@ def test_every_step_is_the_step_it_was(seed, monkeypatch):
     # then (under the pose the claim reaching as far as the pose is worth came later:
     # test_perception.py tests it), a label excusing a UGV's claim however fast it moves (a moving UGV's
     # label needing a blob of its own came later: test_localizer.py tests it), and a UGV's own blob however
-    # small (one under min_vehicle_blob_m2 claiming the rest of the vehicle came later: test_perception.py)
+    # small (one under min_vehicle_blob_m2 claiming the rest of the vehicle came later: test_perception.py),
+    # and under a landmark fit at that reach whatever the fix's error (its 95 % radius added came later:
+    # test_localizer.py tests it)
     claim = now.claim_blobs
     monkeypatch.setattr(now, "claim_blobs", lambda to_px, obs, positions, pairing, cfg, pose_sigma_m=None:
-                        claim(to_px, obs, positions, pairing, cfg))
+                        claim(to_px, obs, {u: replace(p, sigma_m=0.0) for u, p in positions.items()}, pairing, cfg))
     cfg_now = now.LocalizerConfig(**kw, learn_landmark_noise=False, moving_m_s=float("inf"), min_vehicle_blob_m2=0.0)
     cfg_before = before.LocalizerConfig(**kw)
     s_now, s_before = now.LocalizerState(), before.LocalizerState()
