@@ -531,11 +531,11 @@ def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, Ugv
     en = np.array([positions[u].en_m for u in names])
     where_px = ground_to_px(en).tolist()
     label_px = _label_px(obs)
-    fix_sigma_m = np.array([positions[u].sigma_m for u in names])
+    sigma_m = np.array([positions[u].sigma_m for u in names])     # where the UGV is, about where it is put
     if pose_sigma_m is not None:
-        fix_sigma_m = np.hypot(pose_sigma_m(en), fix_sigma_m)
+        sigma_m = np.hypot(pose_sigma_m(en), sigma_m)
         label_px = {}
-    reach_m = cfg.claim_radius_m + R95_PER_SIGMA * fix_sigma_m
+    reach_m = cfg.claim_radius_m + R95_PER_SIGMA * sigma_m
     xy = blobs.xy_px
     own = dict(pairing.blob_of_ugv)
     piece: set[str] = set()     # UGVs whose own blob is less than a vehicle's: a label's patch, or a piece of it
