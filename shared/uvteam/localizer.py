@@ -505,18 +505,17 @@ def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, Ugv
                 cfg: LocalizerConfig, pose_sigma_m: Callable[[np.ndarray], np.ndarray] | None = None) -> np.ndarray:
     """Phase 5a: (N,) bool, the blobs claimed by UGVs where the transform puts them (``ground_to_px``).
 
-    "There" is within ``claim_radius_m`` (or the gate) grown by the 95 % radius of the UGV's fix error:
-    the transform puts the fix where the fix is, and the vehicle's blob lies where the vehicle is.
-    A UGV whose own blob was found there needs no claim: the
-    detector carved it out of whatever it drives through, so a crowd's blob beside it stays a crowd; so
-    does one whose label was found there when a landmark fit stands behind the labels, unless its
-    receiver reports it moving (over ``moving_m_s``): a moving UGV's label rides on a blob of its own,
-    and a label there with none is a patch of its color on the ground beside it. Any other UGV whose
-    position is known (its label not seen, or seen elsewhere) claims the blobs whose box holds that
-    point or whose centre is near it. A blob of its own smaller than ``min_vehicle_blob_m2`` is a piece
-    of the vehicle (a label on a patch of its color beside it, or a carve that left its trail apart), so
-    under a fit the UGV also claims the blobs whose centre is near its position (not those whose box
-    merely holds it: a crowd it drives through keeps its blob).
+    "There" is within ``claim_radius_m`` (or the gate) grown by the 95 % radius of the UGV's fix error: the
+    transform puts the fix where the fix is, and the vehicle's blob lies where the vehicle is. A UGV whose own
+    blob was found there needs no claim: the detector carved it out of whatever it drives through, so a crowd's
+    blob beside it stays a crowd; so does one whose label was found there when a landmark fit stands behind the
+    labels, unless its receiver reports it moving (over ``moving_m_s``): a moving UGV's label rides on a blob of
+    its own, and a label there with none is a patch of its color on the ground beside it. Any other UGV whose
+    position is known (its label not seen, or seen elsewhere) claims the blobs whose box holds that point or
+    whose centre is near it. A blob of its own smaller than ``min_vehicle_blob_m2`` is a piece of the vehicle (a
+    label on a patch of its color beside it, or a carve that left its trail apart), so under a fit the UGV also
+    claims the blobs whose centre is near its position (not those whose box merely holds it: a crowd it drives
+    through keeps its blob).
 
     ``pose_sigma_m``: None when ``ground_to_px`` is a landmark fit (exact at its own landmarks' fixes);
     under the camera's pose, a callable of (N, 2) ground points -> (N,) its 1-sigma per axis. Then the
@@ -531,7 +530,7 @@ def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, Ugv
     en = np.array([positions[u].en_m for u in names])
     where_px = ground_to_px(en).tolist()
     label_px = _label_px(obs)
-    sigma_m = np.array([positions[u].sigma_m for u in names])     # where the UGV is, about where it is put
+    sigma_m = np.array([positions[u].sigma_m for u in names])     # of where each UGV is, about where it is put
     if pose_sigma_m is not None:
         sigma_m = np.hypot(pose_sigma_m(en), sigma_m)
         label_px = {}
