@@ -530,7 +530,7 @@ def claim_blobs(ground_to_px, obs: FrameObservation, positions: Mapping[str, Ugv
     en = np.array([positions[u].en_m for u in names])
     where_px = ground_to_px(en).tolist()
     label_px = _label_px(obs)
-    sigma_m = np.array([positions[u].sigma_m for u in names])     # of where each UGV is, about where it is put
+    sigma_m = np.array([positions[u].sigma_m for u in names])     # each UGV's position, 1 sigma per axis
     if pose_sigma_m is not None:
         sigma_m = np.hypot(pose_sigma_m(en), sigma_m)
         label_px = {}

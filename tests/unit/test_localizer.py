@@ -259,6 +259,23 @@ def test_landmarks_noisier_than_declared_widen_the_radius_they_cause(learn):
         assert state.landmark_chi2 == 1.0 and np.mean(inside) < 0.6
 
 
+def red_beside_its_label(speed_m_s: float, shift_px, sigma_m: float = 0.0):
+    """One step in which red, its receiver reporting ``speed_m_s`` east and a fix of ``sigma_m``, has its
+    label found where its fix says and its motion blob ``shift_px`` off: (the step's result, the blobs)."""
+    from dataclasses import replace
+    red = track_at(UGVS["red"], velocity=(speed_m_s, 0.0), sigma=sigma_m)
+    vel = np.tile([speed_m_s, 0.0], (len(red.fix_stamp_s), 1))
+    tracks = {u: track_at(en) for u, en in UGVS.items()}
+    tracks["red"] = UgvTrack(red.fix_stamp_s, red.fix_en_m, red.fix_sigma_m, fix_v_en_m_s=vel)
+    now = {**UGVS, "red": (UGVS["red"][0] + speed_m_s, 0.0)}     # where red's fix says it is at t = 1 s
+    obs = observation(1.0, ugvs=now)
+    blobs = obs.blobs.xy_px.copy()
+    blobs[0] += shift_px
+    obs = replace(frame_obs(1.0, obs.landmarks.as_dict(), blobs), px_per_m=CAM.focal_px / POSE.up_m)
+    _, out = localize_step(LocalizerState(), obs, tracks, cfg())
+    return out, len(blobs)
+
+
 @pytest.mark.parametrize("speed_m_s, red_blob_is_crowd", [(2.0, False), (0.0, True)])
 def test_a_moving_ugv_whose_label_has_no_blob_of_its_own_claims_the_blob_beside_it(speed_m_s, red_blob_is_crowd):
     # red's label is found where its fix says (a patch of its color on the ground beside it looks the
@@ -266,19 +283,9 @@ def test_a_moving_ugv_whose_label_has_no_blob_of_its_own_claims_the_blob_beside_
     # beyond the 25 px pairing gate. Reported moving, a UGV's label rides on a blob of its own, so the
     # blob beside it is red's, not a crowd; reported still, the label vouches for it (a parked UGV
     # beside a crowd claims nothing), as before
-    from dataclasses import replace
-    red = track_at(UGVS["red"], velocity=(speed_m_s, 0.0))
-    vel = np.tile([speed_m_s, 0.0], (len(red.fix_stamp_s), 1))
-    tracks = {u: track_at(en) for u, en in UGVS.items()}
-    tracks["red"] = UgvTrack(red.fix_stamp_s, red.fix_en_m, red.fix_sigma_m, fix_v_en_m_s=vel)
-    now = {**UGVS, "red": (UGVS["red"][0] + speed_m_s, 0.0)}     # where red is at t = 1 s
-    obs = observation(1.0, ugvs=now)
-    blobs = obs.blobs.xy_px.copy()
-    blobs[0] += (35.0, 0.0)
-    obs = replace(frame_obs(1.0, obs.landmarks.as_dict(), blobs), px_per_m=CAM.focal_px / POSE.up_m)
-    _, out = localize_step(LocalizerState(), obs, tracks, cfg())
+    out, n = red_beside_its_label(speed_m_s, (35.0, 0.0))
     crowds = sorted(c.blob_index for c in out.crowds)
-    assert crowds == ([0, len(blobs) - 1] if red_blob_is_crowd else [len(blobs) - 1])
+    assert crowds == ([0, n - 1] if red_blob_is_crowd else [n - 1])
 
 
 @pytest.mark.parametrize("sigma_m, off_m, red_blob_is_crowd", [(1.0, 3.1, False), (0.0, 3.1, True), (1.0, 6.0, True)])
@@ -288,22 +295,10 @@ def test_a_slow_ugv_s_blob_within_its_fix_error_is_claimed_beside_its_label(sigm
     # The fit puts red's fix where the fix is, so red's claim reaches claim_radius_m and its fix's 95 %
     # radius (2.5 + 2.45 m): the blob is red's. With an exact fix the same blob is beyond any reach of
     # red's (a crowd 3.1 m from a UGV), and 6 m off it is beyond even a 1 m fix's
-    from dataclasses import replace
-    speed_m_s = 0.43
-    red = track_at(UGVS["red"], velocity=(speed_m_s, 0.0), sigma=sigma_m)
-    vel = np.tile([speed_m_s, 0.0], (len(red.fix_stamp_s), 1))
-    tracks = {u: track_at(en) for u, en in UGVS.items()}
-    tracks["red"] = UgvTrack(red.fix_stamp_s, red.fix_en_m, red.fix_sigma_m, fix_v_en_m_s=vel)
-    now = {**UGVS, "red": (UGVS["red"][0] + speed_m_s, 0.0)}     # where red's fix says it is at t = 1 s
-    obs = observation(1.0, ugvs=now)
-    px_per_m = CAM.focal_px / POSE.up_m
-    blobs = obs.blobs.xy_px.copy()
-    blobs[0] += (0.0, off_m * px_per_m)
-    obs = replace(frame_obs(1.0, obs.landmarks.as_dict(), blobs), px_per_m=px_per_m)
-    _, out = localize_step(LocalizerState(), obs, tracks, cfg())
+    out, n = red_beside_its_label(0.43, (0.0, off_m * CAM.focal_px / POSE.up_m), sigma_m)
     assert out.quality == FitQuality.LEAST_SQUARES
     crowds = sorted(c.blob_index for c in out.crowds)
-    assert crowds == ([0, len(blobs) - 1] if red_blob_is_crowd else [len(blobs) - 1])
+    assert crowds == ([0, n - 1] if red_blob_is_crowd else [n - 1])
 
 
 def test_every_blob_labelled_as_a_ugv_is_that_ugv_never_a_crowd():
