@@ -720,8 +720,8 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
 
 def _mingling(crowds: list[ReportedCrowd], cfg: GroupingConfig) -> list[ReportedCrowd]:
     """Step 9: each crowd whose footprint comes within ``mingle_m`` of another's, its radius widened to hold
-    also the two crowds' joint centre (their mean weighted by moving pixels): members of two crowds that
-    close are as likely one crowd as two, and no cut in the blobs tells which."""
+    also the two crowds' joint centre (their mean weighted by moving pixels): the walkers of two crowds that
+    close may be within the 2 m that makes them one crowd, and no cut in the blobs tells."""
     if len(crowds) < 2:
         return crowds
     box = np.array([[*r.estimate.footprint_en_m.min(0), *r.estimate.footprint_en_m.max(0)] for r in crowds], float)
