@@ -113,7 +113,11 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    crowd is placed so, and the radius grows by the distance from the blob's centre to that crowd's
    place (tuning seed 100 of real-alt60-lm6-two at 20.1 s: two crowds 8.8 m apart seen as one blob, its
    centre 1.8-2.8 m from the nearer crowd, its radius that of one crowd seen whole, 2.2 m). While it
-   holds another crowd its own walk and usual size go on as they were before;
+   holds another crowd its own walk and usual size go on as they were before. Held no more (``coast_s``
+   after they were last seen on their own: the two-crowd world's tuning seeds have two crowds walk side by
+   side in one blob for 4-13 s), its radius still reaches as far for its own crowd while the blob has the
+   moving pixels it needed to hold them (:attr:`GroupingState.still_two`; a frame that misses the blob
+   forgets nothing of it), and only the radius: its walk and usual size go on from what is seen;
 9. two crowds reported whose footprints come within ``mingle_m`` of each other may be one: walkers of two
    crowds within 2 m of each other make one crowd (the scenarios' rule), and nothing seen tells which (the
    footprints are boxes round the moving pixels and their history; the detector cuts blobs 1.5 m apart).
@@ -219,6 +223,8 @@ class GroupingState:
     crowd_of: Mapping[int, int] = field(default_factory=dict)  # per track, the crowd it was last reported in
     inside: Mapping[int, tuple["LastSeen", ...]] = field(default_factory=dict)  # per crowd id, the crowds its
                                                                               # blob holds, as last seen (step 8)
+    still_two: Mapping[int, tuple[float, float]] = field(default_factory=dict)  # per crowd id whose blob held
+    # crowds (step 8): how far its radius reached for its own crowd (m), and the moving pixels the blob had to have
 
 
 def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig = GroupingConfig(),
@@ -499,11 +505,12 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
                 live: Mapping[int, CrowdTrack], holding: frozenset[int] = frozenset(),
                 released: frozenset[int] = frozenset()
                 ) -> tuple[list[ReportedCrowd], dict[int, LastSeen], dict[int, int], list[ReportedCrowd],
-                           dict[int, tuple[LastSeen, ...]]]:
+                           dict[int, tuple[LastSeen, ...]], dict[int, tuple[float, float]]]:
     """Steps 6-8: the crowds seen this frame under the ids the team knows them by (placed by their walk
     where partly seen; a radius that holds the crowd of a blob that took another in), what is remembered
     of them, the ids carried over, the crowds unseen this frame still reported (``holding``: the tracks
-    that hold crowds of step 4), and the crowds each crowd's blob holds (step 8)."""
+    that hold crowds of step 4), the crowds each crowd's blob holds (step 8) and what the radius of each
+    blob that held crowds reached for (:attr:`GroupingState.still_two`)."""
     alias = {t: c for t, c in state.alias.items() if t in live}
     out = [replace(r, crowd_id=alias.get(r.track.track_id, r.crowd_id)) for r in seen_crowds]
     last = dict(state.last_seen)
@@ -576,13 +583,24 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
     for k in hidden:
         if out[k].crowd_id == out[k].track.track_id:
             last.pop(out[k].crowd_id, None)
+    still_two = {}
     for k, held in inside.items():
         if k in hidden:      # reported as the crowd whose blob it took, not as itself
             continue
-        out[k] = replace(out[k], estimate=replace(out[k].estimate, radius95_m=_holding_r95(
-            out[k].estimate, [last[out[k].crowd_id]] + list(held), stamp_s, cfg)))
+        host = last[out[k].crowd_id]
+        off_m = _holding_offset_m([host] + list(held), stamp_s, cfg)
+        still_two[out[k].crowd_id] = (off_m, host.usual_px() + sum(cfg.held_share * h.usual_px() for h in held))
+        out[k] = replace(out[k], estimate=replace(out[k].estimate, radius95_m=out[k].estimate.radius95_m + off_m))
+    for k, r in enumerate(out):    # held no more (coast_s since the crowds it took in were seen), still both
+        kept = state.still_two.get(r.crowd_id)
+        if k in inside or k in hidden or kept is None or not r.estimate.area_px >= kept[1]:
+            continue
+        still_two[r.crowd_id] = kept
+        out[k] = replace(r, estimate=replace(r.estimate, radius95_m=r.estimate.radius95_m + kept[0]))
+    # a blob missed for a frame (its crowd held by its walk, step 6) is the same blob when seen again
+    still_two.update((cid, kept) for cid, kept in state.still_two.items() if cid not in ids and cid in last)
     return ([r for k, r in enumerate(out) if k not in hidden], last, alias, coasted,
-            {out[k].crowd_id: held for k, held in inside.items() if k not in hidden})
+            {out[k].crowd_id: held for k, held in inside.items() if k not in hidden}, still_two)
 
 
 def _inside(state: GroupingState, last: dict[int, LastSeen], out: list[ReportedCrowd], ids: list[int],
@@ -620,16 +638,16 @@ def _inside(state: GroupingState, last: dict[int, LastSeen], out: list[ReportedC
     return inside
 
 
-def _holding_r95(c: CrowdEstimate, crowds: list[LastSeen], stamp_s: float, cfg: GroupingConfig) -> float:
-    """Step 8: the 95 % radius of a blob that holds several crowds (``crowds``, as last seen: the one it is
-    reported as first), about its centre ``c``: each crowd is where its walk takes it, all moved alike so
-    that their mean weighted by their usual moving pixels is the blob's centre; the radius is the blob's
-    own plus how far that puts the crowd it is reported as."""
+def _holding_offset_m(crowds: list[LastSeen], stamp_s: float, cfg: GroupingConfig) -> float:
+    """Step 8: how far the 95 % radius of a blob that holds several crowds (``crowds``, as last seen: the one
+    it is reported as first) reaches beyond the blob's own: each crowd is where its walk takes it, all moved
+    alike so that their mean weighted by their usual moving pixels is the blob's centre, and the radius
+    grows by how far that puts the crowd it is reported as from that centre."""
     p = np.array([ls.walk_at(stamp_s, cfg)[0] for ls in crowds])
     u = np.array([ls.usual_px() for ls in crowds])
     w = u / u.sum()
     off = p - w @ p       # each crowd from the blob's centre
-    return float(c.radius95_m + np.hypot(*off[0]))
+    return float(np.hypot(*off[0]))
 
 
 def _took_its_blob(young: CrowdTrack, own: CrowdTrack | None) -> bool:
@@ -706,8 +724,8 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
         lead = min(members, key=lambda k: (-trk[k].hits, trk[k].track_id))
         out.append(ReportedCrowd(_merge([estimates[k] for k in members]), trk[lead], trk[lead].track_id))
         of_lead[trk[lead].track_id] = [trk[k].track_id for k in members]
-    out, last_seen, alias, coasted, inside = _remembered(state, out, stamp_s, cfg, live, frozenset(holds),
-                                                         frozenset(released))
+    out, last_seen, alias, coasted, inside, still_two = _remembered(state, out, stamp_s, cfg, live,
+                                                                    frozenset(holds), frozenset(released))
     crowd_of = {t: c for t, c in state.crowd_of.items() if t in live}
     crowd_of.update((t, r.crowd_id) for r in out for t in of_lead[r.track.track_id])
     out = _mingling(out + coasted, cfg)
@@ -715,7 +733,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     apart = frozenset(p for p in apart if p[0] in live and p[1] in live)   # forgotten with either track
     holds = {x: v for x, v in holds.items() if v and x in live}
     return GroupingState(tracker, apart, streak, holds, last_seen, alias, drifted & apart, joined, crowd_of,
-                         inside), out
+                         inside, still_two), out
 
 
 def _mingling(crowds: list[ReportedCrowd], cfg: GroupingConfig) -> list[ReportedCrowd]:

@@ -781,3 +781,25 @@ def test_a_blob_that_took_another_crowd_in_has_a_radius_that_holds_its_own_crowd
     # with A's pixels alone (B unseen elsewhere, not in A's blob) nothing is held
     run(lambda t: parts(t, merged_until=8.0), 10.0, jitter_m=0.0)
     assert run.state.inside == {}
+
+
+@pytest.mark.parametrize("area_after_14s", [40.0, 34.0])
+def test_a_blob_that_held_another_crowd_keeps_its_reach_while_it_has_both_crowds_pixels(area_after_14s):
+    # the same two crowds, one blob from 8 s to 20 s. Step 8 holds B in A's blob until coast_s (5 s) after B
+    # was last seen on its own; after that the radius still reaches as far for A (3.25 m beyond the blob's
+    # own) while the blob has the moving pixels of both (A's 30 and held_share of B's 10: 35), and no further
+    # once it has fewer (34), or once the blob is A's alone again (the two-crowd world's tuning seeds: two
+    # crowds walking side by side in one blob for 4-13 s, reported at their joint centre)
+    def parts(t):
+        n = 1.2 * t
+        if t < 8.0:
+            return [(0.0, n, 30.0, 4.0), (13.0, n, 10.0, 3.0)]
+        if t < 20.0:
+            return [(3.25, n, 40.0 if t < 14.0 else area_after_14s, 10.0)]
+        return [(0.0, n, 30.0, 4.0)]
+    for seconds in (15.0, 19.9, 21.0):
+        (own,) = run(parts, seconds, jitter_m=0.0, cfg=GroupingConfig(held_share=10.0))   # step 8 off
+        (a,) = run(parts, seconds, jitter_m=0.0)
+        assert run.state.inside == {} and a.unseen_s == 0.0
+        reach = 3.25 if area_after_14s >= 35.0 and seconds < 20.0 else 0.0
+        assert a.estimate.radius95_m == pytest.approx(own.estimate.radius95_m + reach, abs=0.01), seconds
