@@ -263,9 +263,7 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
     if boxes_en is not None and areas is not None and n:
         a = np.asarray(areas, float)
         small = np.minimum(a[:, None], a[None]) <= cfg.straggler_ratio * np.maximum(a[:, None], a[None])
-        lo, hi = boxes_en[:, :2], boxes_en[:, 2:]
-        gap = np.maximum(0.0, np.maximum(lo[:, None] - hi[None], lo[None] - hi[:, None]))
-        stray = small & (np.sqrt((gap ** 2).sum(-1)) <= cfg.near_gap_m)
+        stray = small & (_box_gaps_m(boxes_en) <= cfg.near_gap_m)
         near |= stray & ~two
     far = ~near & (dist >= cfg.apart_m)
     ids = [t.track_id for t in tracks]
@@ -685,7 +683,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     """Track this frame's estimates, join the parts of each crowd; the confirmed crowds, longest-seen first."""
     en = np.array([[c.east_m, c.north_m] for c in estimates]).reshape(-1, 2)
     tracker, trk = state.tracker.update(en, stamp_s)
-    boxes_all = np.array([[*c.footprint_en_m.min(0), *c.footprint_en_m.max(0)] for c in estimates], float).reshape(-1, 4)
+    boxes_all = _boxes_en(estimates)
     live = {t.track_id: t for t in tracker.tracks}
     holds = _merged(state, live, trk, boxes_all, stamp_s)
     estimates = tuple(_with_scatter(c, t, cfg) for c, t in zip(estimates, trk))
@@ -742,11 +740,9 @@ def _mingling(crowds: list[ReportedCrowd], cfg: GroupingConfig) -> list[Reported
     close may be within the 2 m that makes them one crowd, and no cut in the blobs tells."""
     if len(crowds) < 2:
         return crowds
-    box = np.array([[*r.estimate.footprint_en_m.min(0), *r.estimate.footprint_en_m.max(0)] for r in crowds], float)
     en = np.array([[r.estimate.east_m, r.estimate.north_m] for r in crowds], float)
     w = np.array([r.estimate.area_px for r in crowds], float)
-    lo, hi = box[:, :2], box[:, 2:]
-    gap = np.sqrt((np.maximum(0.0, np.maximum(lo[:, None] - hi[None], lo[None] - hi[:, None])) ** 2).sum(-1))
+    gap = _box_gaps_m(_boxes_en([r.estimate for r in crowds]))
     out = list(crowds)
     for i, j in np.argwhere(np.triu(gap <= cfg.mingle_m, 1)).tolist():
         joint = (w[i] * en[i] + w[j] * en[j]) / (w[i] + w[j])
@@ -756,6 +752,18 @@ def _mingling(crowds: list[ReportedCrowd], cfg: GroupingConfig) -> list[Reported
             if r95 > c.radius95_m:
                 out[k] = replace(out[k], estimate=replace(c, radius95_m=r95))
     return out
+
+
+def _boxes_en(estimates) -> np.ndarray:
+    """(n, 4): each estimate's footprint as the box east/north min/max."""
+    return np.array([[*c.footprint_en_m.min(0), *c.footprint_en_m.max(0)] for c in estimates], float).reshape(-1, 4)
+
+
+def _box_gaps_m(boxes_en: np.ndarray) -> np.ndarray:
+    """(n, n): the distance between each two boxes (east/north min/max), 0 where they touch or overlap."""
+    lo, hi = boxes_en[:, :2], boxes_en[:, 2:]
+    gap = np.maximum(0.0, np.maximum(lo[:, None] - hi[None], lo[None] - hi[:, None]))
+    return np.sqrt((gap ** 2).sum(-1))
 
 
 def _joined_after(joined: frozenset[Pair], ids: list[int], labels: list[int], live: Mapping[int, CrowdTrack]
