@@ -181,8 +181,10 @@ class MavlinkParser:
                 i += total - (_SIG_LEN if signed else 0)
             else:
                 verdict = self._signature(frame, m)
-                if verdict == "bad_signature":
-                    i += 1                          # same reason: resync inside the "signature"
+                if verdict in ("bad_signature", "unsigned"):
+                    # same reason: resync inside the "signature"; and a frame with no signature vouches for
+                    # no more than its CRC, which noise matches now and then, swallowing the packet behind it
+                    i += 1
                     continue
                 i += total
                 if verdict != "ok":
