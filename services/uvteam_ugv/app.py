@@ -26,7 +26,7 @@ def run(cfg: VehicleConfig, stop: StopFlag) -> int:
             raise ConfigError(cfg.source, "ugv.camera", str(exc)) from exc
     link = AutopilotLink(cfg.autopilot.url, target_system=cfg.autopilot.system_id,
                          target_component=cfg.autopilot.component_id, signing_key=read_signing_key(cfg),
-                         link_timeout_s=cfg.autopilot.link_timeout_s)
+                         link_timeout_s=cfg.autopilot.link_timeout_s, cancel=stop)
 
     detector = None
     if source is not None:

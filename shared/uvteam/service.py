@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 import threading
 import time
@@ -59,6 +60,12 @@ def status_of(cfg: VehicleConfig, node: Node, bus: Bus, now_s: float) -> Status:
 
 
 Worker = tuple[str, Callable[[StopFlag], None]]
+JOIN_TIMEOUT_S = 2.0
+# The node's threads that outlived their join (names). A thread still inside native code (zenoh,
+# OpenCV) when the interpreter finalises is cancelled through frames that catch the unwind, and the
+# process aborts ("FATAL: exception not rethrown") after a clean stop; service_main then exits
+# without finalising instead.
+_stragglers: list[str] = []
 OPEN_ATTEMPT_MS = 1000       # each attempt to reach the router waits this long, so a stop is heard within 2 s
 
 
@@ -110,8 +117,12 @@ def run_node(cfg: VehicleConfig, stop: StopFlag, make_node: Callable[[Bus], Node
         finally:
             notify("STOPPING=1")
             stop.set()
+            deadline = time.monotonic() + JOIN_TIMEOUT_S
             for t in threads:
-                t.join(timeout=2.0)
+                t.join(timeout=max(0.0, deadline - time.monotonic()))
+            _stragglers.extend(t.name for t in threads if t.is_alive())
+            if _stragglers:
+                log.warning("still running %.0f s after the stop: %s", JOIN_TIMEOUT_S, ", ".join(_stragglers))
             close = getattr(node, "close", None)
             if close is not None:
                 close()
@@ -136,10 +147,16 @@ def service_main(argv: list[str] | None, prog: str, description: str, role: str,
         return 2
     setup_logging(f"{cfg.team}/{cfg.id}", args.log_level)
     try:
-        return run(cfg, StopFlag())
+        code = run(cfg, StopFlag())
     except ConfigError as exc:
         logging.getLogger(prog).error("configuration error: %s", exc)
-        return 2
+        code = 2
     except LinkError as exc:
         logging.getLogger(prog).error("link error: %s", exc)
-        return 3
+        code = 3
+    if _stragglers:   # see _stragglers: everything is closed; do not let finalisation cancel them
+        logging.shutdown()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    return code

@@ -310,3 +310,29 @@ def test_link_command_long_gets_the_ack(udp_pair):
     assert link.command_long(mavlink2.MAV_CMD_REQUEST_MESSAGE, gpi) == ok
     assert wait_for(lambda: link.counters["received"] > before)                    # and the message came
     assert link.command_long(mavlink2.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, 0, 0, 0, 10) == unsupported
+
+
+# --- a stop is heard while the link waits for an autopilot gone quiet -------------------------------------
+@pytest.mark.parametrize("exchange", ["upload", "download", "command"])
+def test_a_wait_for_a_quiet_autopilot_gives_up_when_the_service_stops(udp_port, exchange):
+    """An autopilot that heartbeats but answers nothing keeps an exchange retrying for seconds (0.5 s x 5
+    by default); the service's stop flag ends it within a wait slice, so its thread joins on stop
+    instead of outliving the bus (a thread inside zenoh at interpreter exit aborts the process)."""
+    stop = threading.Event()
+    link = AutopilotLink(f"udpin:127.0.0.1:{udp_port}", target_system=7, cancel=stop).start()
+    pack = packer(7)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as ap:
+        try:
+            ap.sendto(pack(heartbeat()), ("127.0.0.1", udp_port))
+            assert wait_for(lambda: link.link_up)
+            item = MissionItem(mavlink2.MAV_CMD_NAV_WAYPOINT, 31.48, -111.54, 0.0)
+            call = {"upload": lambda: link.upload_mission([item]),
+                    "download": link.download_mission,
+                    "command": lambda: link.command_long(mavlink2.MAV_CMD_DO_CHANGE_SPEED, 1, 2.0, -1)}[exchange]
+            threading.Timer(0.3, stop.set).start()
+            t0 = time.monotonic()
+            with pytest.raises(LinkError, match="stopped"):
+                call()
+            assert time.monotonic() - t0 < 0.3 + 0.3
+        finally:
+            link.close()

@@ -70,6 +70,7 @@ log = logging.getLogger(__name__)
 
 
 DEFAULT_BAUD = 57600
+WAIT_SLICE_S = 0.1                       # a wait for the autopilot looks at its cancel flag this often
 SIGNING_EPOCH_UNIX_S = 1420070400       # MAVLink 2 signing timestamps: 10 us units since 2015-01-01 UTC
 NEW_STREAM_MAX_LAG = 60 * 100_000        # a new signed stream may be at most 1 minute behind our clock
 _V1, _V2 = mavlink2.PROTOCOL_MARKER_V1, mavlink2.PROTOCOL_MARKER_V2
@@ -399,12 +400,15 @@ class AutopilotLink:
     ``source_system``/``source_component``: who we are (replies must be addressed to us).
     ``signing_key`` (32 bytes) and ``link_id``: MAVLink 2 signing, both ways, on every transport.
     ``link_timeout_s``: the link is "down" when no HEARTBEAT of the target came for this long.
+    ``cancel`` (anything with ``is_set()``, e.g. the service's stop flag): once set, a command or mission
+    exchange waiting for the autopilot gives up within :data:`WAIT_SLICE_S` with LinkError, so a service
+    told to stop is not held for seconds of retries by an autopilot that went quiet.
     """
 
     def __init__(self, url: str, *, target_system: int = 1, target_component: int = 0,
                  source_system: int = 245, source_component: int = mavlink2.MAV_COMP_ID_ONBOARD_COMPUTER,
                  signing_key: bytes | None = None, link_id: int = 0, link_timeout_s: float = 3.0,
-                 heartbeat_hz: float = 1.0) -> None:
+                 heartbeat_hz: float = 1.0, cancel=None) -> None:
         self.url = url
         self.kind, self.host, self.port = parse_url(url)
         self.target_system, self.target_component = target_system, target_component
@@ -424,6 +428,7 @@ class AutopilotLink:
         self._mission_q: queue.Queue = queue.Queue()
         self._ack_q: queue.Queue = queue.Queue()
         self._stop = threading.Event()
+        self._cancel = cancel
         self._thread: threading.Thread | None = None
         self._tx_lock = threading.Lock()
         self.counters = {"received": 0, "ignored_source": 0, "bad": 0, "out_of_range": 0, "reconnects": 0,
@@ -613,11 +618,7 @@ class AutopilotLink:
         for confirmation in range(retries + 1):
             self.send(mavlink2.MAVLink_command_long_message(self.target_system, tc, command, confirmation % 256, *p))
             deadline = time.monotonic() + timeout_s
-            while (left := deadline - time.monotonic()) > 0:
-                try:
-                    ack = self._ack_q.get(timeout=left)
-                except queue.Empty:
-                    break
+            while (ack := self._get(self._ack_q, deadline)) is not None:
                 if ack.command == command and ack.result != mavlink2.MAV_RESULT_IN_PROGRESS:
                     return ack.result
         raise LinkError(self.url, f"no COMMAND_ACK for command {command}")
@@ -631,15 +632,27 @@ class AutopilotLink:
             except queue.Empty:
                 return
 
-    def _await(self, types: tuple[str, ...], timeout_s: float, seq: int | None = None):
-        deadline = time.monotonic() + timeout_s
+    def _check_cancelled(self) -> None:
+        if self._stop.is_set() or (self._cancel is not None and self._cancel.is_set()):
+            raise LinkError(self.url, "stopped while waiting for the autopilot")
+
+    def _get(self, q: queue.Queue, deadline: float):
+        """The next message of ``q`` before ``deadline`` (monotonic), else None; LinkError once cancelled."""
         while True:
+            self._check_cancelled()
             left = deadline - time.monotonic()
             if left <= 0:
                 return None
             try:
-                m = self._mission_q.get(timeout=left)
+                return q.get(timeout=min(left, WAIT_SLICE_S))
             except queue.Empty:
+                continue
+
+    def _await(self, types: tuple[str, ...], timeout_s: float, seq: int | None = None):
+        deadline = time.monotonic() + timeout_s
+        while True:
+            m = self._get(self._mission_q, deadline)
+            if m is None:
                 return None
             if m.get_type() in types and (seq is None or getattr(m, "seq", seq) == seq):
                 if getattr(m, "mission_type", 0) not in (0, None):
@@ -649,6 +662,7 @@ class AutopilotLink:
     def _convention(self, wait_s: float) -> str:
         deadline = time.monotonic() + wait_s
         while self.mission_convention is None and time.monotonic() < deadline:
+            self._check_cancelled()
             time.sleep(0.02)
         conv = self.mission_convention
         if conv is None:

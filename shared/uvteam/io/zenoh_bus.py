@@ -5,7 +5,9 @@
 
 Handlers run on zenoh's threads: keep them short (push to a queue). Sessions are always closed (an
 unclosed session with a callback subscriber hangs the interpreter at exit), so use the bus as a
-context manager.
+context manager. After :meth:`ZenohBus.close` a publish is dropped and counted (``dropped_closed``)
+without calling zenoh: a thread still inside a zenoh call while the interpreter finalises is
+cancelled through zenoh's native frames, and the process aborts ("FATAL: exception not rethrown").
 """
 
 from __future__ import annotations
@@ -132,6 +134,7 @@ class ZenohBus(Decoding):
         self._subs: list[Any] = []
         self._tokens: list[Any] = []
         self._closed = False
+        self.dropped_closed = 0      # publishes that came after close(): never handed to zenoh
 
     @classmethod
     def open(cls, cfg: BusConfig) -> "ZenohBus":
@@ -154,6 +157,9 @@ class ZenohBus(Decoding):
         """Encode, validate and put ``msg`` on ``key``; zenoh's encoding names its schema
         (``application/msgpack;crowds/3``), so a receiver can tell what came without decoding it."""
         raw = messages.encode(msg)
+        if self._closed:
+            self._drop_closed(key)
+            return
         pub = self._pubs.get((key, type(msg)))
         if pub is None:
             pub = self.session.declare_publisher(
@@ -168,8 +174,16 @@ class ZenohBus(Decoding):
         ``application/msgpack;fix/2``), or garbage in fault-injection tests (plain ``application/msgpack``).
         Blocking under congestion as :meth:`publish` does: zenoh's default drops, and a replay as fast as
         it goes on a loaded machine lost a payload."""
+        if self._closed:
+            self._drop_closed(key)
+            return
         self.session.put(key, raw, encoding=self._zenoh.Encoding(encoding) if encoding else self._encoding,
                          congestion_control=self._zenoh.CongestionControl.BLOCK)
+
+    def _drop_closed(self, key: str) -> None:
+        self.dropped_closed += 1
+        if self.dropped_closed == 1:
+            log.info("bus closed: dropped a message for %s (and any after it)", key)
 
     def subscribe(self, keyexpr: str, cls: type, handler: Callable[[str, Any], None]) -> None:
         def on_sample(sample) -> None:
