@@ -102,21 +102,28 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    between at a point between the two by the share seen, its radius the larger of the two. While it is
    partly seen its walk is the one it had when seen whole (what is seen of it would pull the walk
    aside, and the walk is what steps 6 and 7 place it by); its track keeps what was seen;
-8. a crowd reported on its own for ``coast_min_seen_s`` that goes unseen where its walk has it in the
-   footprint of another crowd's blob, that blob having its own usual moving pixels and ``held_share`` of
-   the unseen one's, is in that blob (:attr:`GroupingState.inside`), for as long as it stays so, up to
-   ``coast_s`` after it was last seen on its own. The blob is reported as one crowd, the one it is
-   known by (as the scenarios score crowds that mingle, and the blob's centre is where their walkers'
-   joint centroid is; reported as two, each where its walk takes it moved alike to keep that centroid,
-   the second is a false crowd wherever they mingle: field-alt100-lm6's false crowds 163 -> 494 for
-   recall 0.960 -> 0.977), but with a radius that holds that crowd, not the blob's joint centroid: each
-   crowd is placed so, and the radius grows by the distance from the blob's centre to that crowd's
-   place (tuning seed 100 of real-alt60-lm6-two at 20.1 s: two crowds 8.8 m apart seen as one blob, its
-   centre 1.8-2.8 m from the nearer crowd, its radius that of one crowd seen whole, 2.2 m). While it
-   holds another crowd its own walk and usual size go on as they were before. Held no more (``coast_s``
-   after they were last seen on their own: the two-crowd world's tuning seeds have two crowds walk side by
-   side in one blob for 4-13 s), its radius still reaches as far for its own crowd while the blob has the
-   moving pixels it needed to hold them (:attr:`GroupingState.still_two`; a frame that misses the blob
+8. a crowd reported on its own for ``coast_min_seen_s`` that goes unseen where its walk has it in the footprint
+   of another crowd's blob, that blob having its own usual moving pixels and ``held_share`` of the unseen
+   one's, is in that blob (:attr:`GroupingState.inside`), for as long as it stays so (the blob keeps
+   ``held_keep_share`` of it: one frame 23 pixels short of ``held_share`` forgot it for good, as did a frame
+   that missed the blob, whose crowd is then held by its walk from the blob's centre, where it was reported;
+   and a crowd seen on its own for a frame between two spells in the blob is again what it was before, so the
+   blob takes it in again at once), up to ``coast_s`` after it was last seen on its own. A part first seen
+   since then, with ``held_share`` of its moving pixels, nearer where its walk has it than where the blob's
+   crowd's walk has it, is that crowd walking out (:func:`_came_out`): apart from the blob's crowd at once,
+   under its own id (tuning seed 12 of real-alt60-lm6-two at 14.7 s: two crowds passing 9-10 m apart came out
+   of one blob; the part that came out, young in the blob's footprint, joined it, and they were one crowd until
+   a drift that never came). The blob is reported as one crowd, the one it is known by (as the scenarios score
+   crowds that mingle, and the blob's centre is where their walkers' joint centroid is; reported as two, each
+   where its walk takes it moved alike to keep that centroid, the second is a false crowd wherever they mingle:
+   field-alt100-lm6's false crowds 163 -> 494 for recall 0.960 -> 0.977), but with a radius that holds that
+   crowd, not the blob's joint centroid: each crowd is placed so, and the radius grows by the distance from the
+   blob's centre to that crowd's place (tuning seed 100 of real-alt60-lm6-two at 20.1 s: two crowds 8.8 m apart
+   seen as one blob, its centre 1.8-2.8 m from the nearer crowd, its radius that of one crowd seen whole,
+   2.2 m). While it holds another crowd its own walk and usual size go on as they were before. Held no more
+   (``coast_s`` after they were last seen on their own: the two-crowd world's tuning seeds have two crowds walk
+   side by side in one blob for 4-13 s), its radius still reaches as far for its own crowd while the blob has
+   the moving pixels it needed to hold them (:attr:`GroupingState.still_two`; a frame that misses the blob
    forgets nothing of it), and only the radius: its walk and usual size go on from what is seen;
 9. two crowds reported whose footprints come within ``mingle_m`` of each other may be one: walkers of two
    crowds within 2 m of each other make one crowd (the scenarios' rule), and nothing seen tells which (the
@@ -168,6 +175,7 @@ class GroupingConfig:
     seen_none: float = 0.5        # ... with this share or less, where its walk takes it (step 7)
     two_upper_k: float = 2.0      # parts of two crowds are one once their drift plus this many standard errors is slow
     held_share: float = 0.5       # a crowd's blob with its usual pixels and this share of an unseen one's holds it (step 8)
+    held_keep_share: float = 0.1   # ... and, holding it, keeps it with this share (one frame short forgot it)
     mingle_m: float = 1.0         # crowds whose footprints come this close may be one crowd: their radii hold both (step 9)
 
     def __post_init__(self) -> None:
@@ -177,6 +185,8 @@ class GroupingConfig:
         if not (0.0 <= self.straggler_ratio <= 1.0 and self.near_gap_m >= 0.0 and self.significance >= 0.0
                 and self.mingle_m >= 0.0):
             raise ValueError("straggler_ratio must be in [0, 1], near_gap_m, significance and mingle_m >= 0")
+        if not 0.0 <= self.held_keep_share <= self.held_share:
+            raise ValueError(f"need 0 <= held_keep_share <= held_share, got {self.held_keep_share}, {self.held_share}")
         if not (self.coast_s >= 0.0 and self.coast_min_seen_s >= 0.0 and self.coast_sigma_v_m_s >= 0.0
                 and self.coast_sigma_a_m_s2 >= 0.0):
             raise ValueError("coast_s, coast_min_seen_s, coast_sigma_v_m_s and coast_sigma_a_m_s2 must be >= 0")
@@ -501,15 +511,17 @@ class LastSeen:
 
 def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s: float, cfg: GroupingConfig,
                 live: Mapping[int, CrowdTrack], holding: frozenset[int] = frozenset(),
-                released: frozenset[int] = frozenset()
+                released: frozenset[int] = frozenset(), came_out: Mapping[int, int] | None = None
                 ) -> tuple[list[ReportedCrowd], dict[int, LastSeen], dict[int, int], list[ReportedCrowd],
                            dict[int, tuple[LastSeen, ...]], dict[int, tuple[float, float]]]:
     """Steps 6-8: the crowds seen this frame under the ids the team knows them by (placed by their walk
     where partly seen; a radius that holds the crowd of a blob that took another in), what is remembered
     of them, the ids carried over, the crowds unseen this frame still reported (``holding``: the tracks
     that hold crowds of step 4), the crowds each crowd's blob holds (step 8) and what the radius of each
-    blob that held crowds reached for (:attr:`GroupingState.still_two`)."""
+    blob that held crowds reached for (:attr:`GroupingState.still_two`). ``came_out``: per track, the crowd
+    held in a blob (step 8) that it is, walking out of it."""
     alias = {t: c for t, c in state.alias.items() if t in live}
+    alias.update((t, c) for t, c in (came_out or {}).items() if t in live)
     out = [replace(r, crowd_id=alias.get(r.track.track_id, r.crowd_id)) for r in seen_crowds]
     last = dict(state.last_seen)
     seen = np.array([[r.estimate.east_m, r.estimate.north_m] for r in out], float).reshape(-1, 2)
@@ -536,6 +548,10 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
             ids[k] = r.track.track_id
             out[k] = replace(r, crowd_id=r.track.track_id)
             alias.pop(r.track.track_id, None)
+    for held in state.inside.values():   # a crowd a blob held, seen again: what it was before it went in
+        for ls in held:
+            if ls.crowd.crowd_id in ids and ls.crowd.crowd_id not in last:
+                last[ls.crowd.crowd_id] = ls
     inside = _inside(state, last, out, ids, stamp_s, cfg)
     for k, r in enumerate(out):
         tr, prev = r.track, last.get(r.crowd_id)
@@ -566,6 +582,8 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
         if dt <= 0.0:
             continue
         at, r95 = ls.walk_at(stamp_s, cfg)
+        if cid in state.inside:   # a blob holding crowds, reported at its centre, goes on from there
+            at = np.add((ls.crowd.estimate.east_m, ls.crowd.estimate.north_m), np.multiply(ls.v_en_m_s, dt))
         near = np.flatnonzero(np.hypot(*(seen - at).T) < cfg.near_m) if len(seen) else np.empty(0, int)
         own = live.get(ls.crowd.track.track_id)
         took = [k for k in near if out[k].track.track_id not in holding and _took_its_blob(out[k].track, own)]
@@ -597,8 +615,11 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
         out[k] = replace(r, estimate=replace(r.estimate, radius95_m=r.estimate.radius95_m + kept[0]))
     # a blob missed for a frame (its crowd held by its walk, step 6) is the same blob when seen again
     still_two.update((cid, kept) for cid, kept in state.still_two.items() if cid not in ids and cid in last)
+    # a blob missed for a frame, its crowd held by its walk (step 6), still holds what it held
+    carried = {cid: kept for cid, held in state.inside.items() if cid not in ids and cid in last
+               and (kept := tuple(ls for ls in held if stamp_s - ls.seen_s <= cfg.coast_s))}
     return ([r for k, r in enumerate(out) if k not in hidden], last, alias, coasted,
-            {out[k].crowd_id: held for k, held in inside.items() if k not in hidden}, still_two)
+            carried | {out[k].crowd_id: held for k, held in inside.items() if k not in hidden}, still_two)
 
 
 def _inside(state: GroupingState, last: dict[int, LastSeen], out: list[ReportedCrowd], ids: list[int],
@@ -609,13 +630,13 @@ def _inside(state: GroupingState, last: dict[int, LastSeen], out: list[ReportedC
     theirs, and they were last seen no more than ``coast_s`` ago."""
     inside: dict[int, tuple[LastSeen, ...]] = {}
 
-    def holds(k: int, ls: LastSeen) -> bool:
+    def holds(k: int, ls: LastSeen, share: float) -> bool:
         host = last.get(out[k].crowd_id)
         if host is None or len(host.areas) < cfg.scatter_min_points or not 0.0 < stamp_s - ls.seen_s <= cfg.coast_s:
             return False
         fp = out[k].estimate.footprint_en_m
         at, _ = ls.walk_at(stamp_s, cfg)
-        have = host.usual_px() + sum(cfg.held_share * h.usual_px() for h in inside.get(k, ()) + (ls,))
+        have = host.usual_px() + sum(share * h.usual_px() for h in inside.get(k, ()) + (ls,))
         return (out[k].estimate.area_px >= have
                 and bool(_in_boxes(at, np.hstack([fp.min(0), fp.max(0)]), HOLD_MARGIN_M)[0, 0]))
 
@@ -623,14 +644,14 @@ def _inside(state: GroupingState, last: dict[int, LastSeen], out: list[ReportedC
     for cid, held in state.inside.items():
         k = at_k.get(cid)
         for ls in held if k is not None else ():
-            if ls.crowd.crowd_id not in ids and holds(k, ls):
+            if ls.crowd.crowd_id not in ids and holds(k, ls, cfg.held_keep_share):
                 inside[k] = inside.get(k, ()) + (ls,)
     for cid, ls in list(last.items()):
         if (cid in ids or len(ls.areas) < cfg.scatter_min_points
                 or not ls.seen_s - ls.crowd.track.first_s >= cfg.coast_min_seen_s):
             continue
         for k in range(len(out)):
-            if out[k].crowd_id != cid and holds(k, ls):
+            if out[k].crowd_id != cid and holds(k, ls, cfg.held_share):
                 inside[k] = inside.get(k, ()) + (last.pop(cid),)
                 break
     return inside
@@ -703,12 +724,17 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
                     drifted.add(pair)
                 since = holds[x] = since[:-1]
                 released.add(x)
+    came_out = _came_out(state, estimates, trk, stamp_s, cfg)
+    for k, (host, _) in came_out.items():   # a crowd a blob held (step 8) walks out of it: two crowds at once
+        if host in live:
+            apart.add(_pair(host, trk[k].track_id))
     groups: dict[int, list[int]] = {}
-    young = _young_parts(state, estimates, confirmed, stamp_s, holds, cfg)
+    young = _young_parts(state, estimates, confirmed, stamp_s, holds, cfg, frozenset(came_out))
+    young.update((k, cid) for k, (_, cid) in came_out.items() if k not in confirmed)
     parts = confirmed + list(young)
     boxes_en = boxes_all[parts].reshape(-1, 4)
     areas = np.array([estimates[k].area_px for k in parts], float)
-    crowds = [young.get(k, state.crowd_of.get(trk[k].track_id)) for k in parts]
+    crowds = [came_out[k][1] if k in came_out else young.get(k, state.crowd_of.get(trk[k].track_id)) for k in parts]
     labels, apart, streak, drifted = crowd_groups([trk[k] for k in parts], stamp_s, cfg, boxes_en, areas,
                                                   frozenset(apart), state.streak, frozenset(drifted), state.joined,
                                                   crowds)
@@ -722,8 +748,9 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
         lead = min(members, key=lambda k: (-trk[k].hits, trk[k].track_id))
         out.append(ReportedCrowd(_merge([estimates[k] for k in members]), trk[lead], trk[lead].track_id))
         of_lead[trk[lead].track_id] = [trk[k].track_id for k in members]
-    out, last_seen, alias, coasted, inside, still_two = _remembered(state, out, stamp_s, cfg, live,
-                                                                    frozenset(holds), frozenset(released))
+    out, last_seen, alias, coasted, inside, still_two = _remembered(
+        state, out, stamp_s, cfg, live, frozenset(holds), frozenset(released),
+        {trk[k].track_id: cid for k, (_, cid) in came_out.items()})
     crowd_of = {t: c for t, c in state.crowd_of.items() if t in live}
     crowd_of.update((t, r.crowd_id) for r in out for t in of_lead[r.track.track_id])
     out = _mingling(out + coasted, cfg)
@@ -751,6 +778,33 @@ def _mingling(crowds: list[ReportedCrowd], cfg: GroupingConfig) -> list[Reported
             r95 = float(np.hypot(crowds[k].estimate.radius95_m, np.hypot(*(en[k] - joint))))
             if r95 > c.radius95_m:
                 out[k] = replace(out[k], estimate=replace(c, radius95_m=r95))
+    return out
+
+
+def _came_out(state: GroupingState, estimates: tuple[CrowdEstimate, ...], trk: list[CrowdTrack], stamp_s: float,
+              cfg: GroupingConfig) -> dict[int, tuple[int, int]]:
+    """Step 8's crowds walking out of the blob that held them: per estimate (index), the host's track and
+    the held crowd's id. An estimate is a held crowd coming out when its track was first seen after the
+    crowd was last seen on its own, it has ``held_share`` of the crowd's usual moving pixels, and it lies
+    nearer where the crowd's walk has it than where the host's does (within ``near_m``); the nearest such
+    estimate per held crowd. Two crowds passing each other (the two-crowd world's tuning seed 12 at 14.7 s)
+    came out of one blob 9-10 m apart and, the part that came out young in the host's footprint, were one
+    crowd until a drift that never came."""
+    out: dict[int, tuple[int, int]] = {}
+    en = np.array([[c.east_m, c.north_m] for c in estimates], float).reshape(-1, 2)
+    for cid, held in state.inside.items():
+        host = state.last_seen.get(cid)
+        if host is None:
+            continue
+        host_track = host.crowd.track.track_id
+        d_host = np.hypot(*(en - host.walk_at(stamp_s, cfg)[0]).T)
+        for ls in held:
+            d = np.hypot(*(en - ls.walk_at(stamp_s, cfg)[0]).T)
+            ok = [k for k in range(len(trk)) if trk[k].track_id != host_track and trk[k].first_s > ls.seen_s
+                  and k not in out and estimates[k].area_px >= cfg.held_share * ls.usual_px()
+                  and d[k] < min(d_host[k], cfg.near_m)]
+            if ok:
+                out[min(ok, key=lambda k: d[k])] = (host_track, ls.crowd.crowd_id)
     return out
 
 
@@ -791,7 +845,8 @@ def _in_boxes(points_en: np.ndarray, boxes_en: np.ndarray, margin_m: float = 0.0
 
 
 def _young_parts(state: GroupingState, estimates: tuple[CrowdEstimate, ...], confirmed: list[int],
-                 stamp_s: float, holds: Mapping, cfg: GroupingConfig) -> dict[int, int]:
+                 stamp_s: float, holds: Mapping, cfg: GroupingConfig, skip: frozenset[int] = frozenset()
+                 ) -> dict[int, int]:
     """Step 5's exception: the estimates of tracks seen fewer than ``confirm_hits`` times whose centre
     lies in the footprint of a crowd seen in the last frame that crowds were seen in (moved on by
     its track's velocity), unless that crowd's track holds crowds of step 4, and only as much as the
@@ -819,7 +874,7 @@ def _young_parts(state: GroupingState, estimates: tuple[CrowdEstimate, ...], con
             whole = max(whole, ls.usual_px())
         # only what the crowd's confirmed parts miss of it: a blob beside a crowd seen whole is no part
         have = sum(estimates[k].area_px for k in inside if k in confirmed)
-        for k in sorted((k for k in inside if k not in confirmed and k not in young),
+        for k in sorted((k for k in inside if k not in confirmed and k not in young and k not in skip),
                         key=lambda k: -estimates[k].area_px):
             if have < cfg.seen_whole * whole and have + estimates[k].area_px <= whole / cfg.seen_whole:
                 young[k] = ls.crowd.crowd_id
