@@ -105,25 +105,25 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
 8. a crowd reported on its own for ``coast_min_seen_s`` that goes unseen where its walk has it in the footprint
    of another crowd's blob, that blob having its own usual moving pixels and ``held_share`` of the unseen
    one's, is in that blob (:attr:`GroupingState.inside`), for as long as it stays so (the blob keeps
-   ``held_keep_share`` of it: one frame 23 pixels short of ``held_share`` forgot it for good, as did a frame
-   that missed the blob, whose crowd is then held by its walk from the blob's centre, where it was reported;
-   and a crowd seen on its own for a frame between two spells in the blob is again what it was before, so the
-   blob takes it in again at once), up to ``coast_s`` after it was last seen on its own. A part first seen
-   since then, with ``held_share`` of its moving pixels, nearer where its walk has it than where the blob's
-   crowd's walk has it, is that crowd walking out (:func:`_came_out`): apart from the blob's crowd at once,
-   under its own id (tuning seed 12 of real-alt60-lm6-two at 14.7 s: two crowds passing 9-10 m apart came out
-   of one blob; the part that came out, young in the blob's footprint, joined it, and they were one crowd until
-   a drift that never came). The blob is reported as one crowd, the one it is known by (as the scenarios score
-   crowds that mingle, and the blob's centre is where their walkers' joint centroid is; reported as two, each
-   where its walk takes it moved alike to keep that centroid, the second is a false crowd wherever they mingle:
-   field-alt100-lm6's false crowds 163 -> 494 for recall 0.960 -> 0.977), but with a radius that holds that
-   crowd, not the blob's joint centroid: each crowd is placed so, and the radius grows by the distance from the
-   blob's centre to that crowd's place (tuning seed 100 of real-alt60-lm6-two at 20.1 s: two crowds 8.8 m apart
-   seen as one blob, its centre 1.8-2.8 m from the nearer crowd, its radius that of one crowd seen whole,
-   2.2 m). While it holds another crowd its own walk and usual size go on as they were before. Held no more
-   (``coast_s`` after they were last seen on their own: the two-crowd world's tuning seeds have two crowds walk
-   side by side in one blob for 4-13 s), its radius still reaches as far for its own crowd while the blob has
-   the moving pixels it needed to hold them (:attr:`GroupingState.still_two`; a frame that misses the blob
+   ``held_keep_share`` of it: one frame 126 pixels short of ``held_share``'s 5,818 forgot it for good, as did a
+   frame that missed the blob, whose crowd is then held by its walk from the blob's centre, where it was
+   reported; and a crowd seen on its own for a frame between two spells in the blob is again what it was
+   before, so the blob takes it in again at once), up to ``coast_s`` after it was last seen on its own. A part
+   first seen since then, with ``held_share`` of its moving pixels, nearer where its walk has it than where the
+   blob's crowd's walk has it, is that crowd walking out (:func:`_came_out`): apart from the blob's crowd at
+   once, under its own id (tuning seed 12 of real-alt60-lm6-two at 14.7 s: two crowds passing 9-10 m apart came
+   out of one blob; the part that came out, young in the blob's footprint, joined it, and they were one crowd
+   until a drift that never came). The blob is reported as one crowd, the one it is known by (as the scenarios
+   score crowds that mingle, and the blob's centre is where their walkers' joint centroid is; reported as two,
+   each where its walk takes it moved alike to keep that centroid, the second is a false crowd wherever they
+   mingle: field-alt100-lm6's false crowds 163 -> 494 for recall 0.960 -> 0.977), but with a radius that holds
+   that crowd, not the blob's joint centroid: each crowd is placed so, and the radius grows by the distance
+   from the blob's centre to that crowd's place (tuning seed 100 of real-alt60-lm6-two at 20.1 s: two crowds
+   8.8 m apart seen as one blob, its centre 1.8-2.8 m from the nearer crowd, its radius that of one crowd seen
+   whole, 2.2 m). While it holds another crowd its own walk and usual size go on as they were before. Held no
+   more (``coast_s`` after they were last seen on their own: the two-crowd world's tuning seeds have two crowds
+   walk side by side in one blob for 4-13 s), its radius still reaches as far for its own crowd while the blob
+   has the moving pixels it needed to hold them (:attr:`GroupingState.still_two`; a frame that misses the blob
    forgets nothing of it), and only the radius: its walk and usual size go on from what is seen;
 9. two crowds reported whose footprints come within ``mingle_m`` of each other may be one: walkers of two
    crowds within 2 m of each other make one crowd (the scenarios' rule), and nothing seen tells which (the
