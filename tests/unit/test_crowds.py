@@ -783,15 +783,21 @@ def test_a_blob_that_took_another_crowd_in_has_a_radius_that_holds_its_own_crowd
     assert run.state.inside == {}
 
 
+def _one_blob_from_8s(t, at_10s=40.0):
+    """A (30 units) and B (10) walking north 13 m apart, one blob of 40 units from 8 s; in the frame at 10 s
+    the blob has ``at_10s`` units (None: missed)."""
+    n = 1.2 * t
+    if t < 8.0:
+        return [(0.0, n, 30.0, 4.0), (13.0, n, 10.0, 3.0)]
+    area = at_10s if abs(t - 10.0) < 0.05 else 40.0
+    return [] if area is None else [(3.25, n, area, 10.0)]
+
+
 def test_a_blob_holding_a_crowd_keeps_it_through_a_frame_a_little_short_of_pixels():
     # A (30 units) and B (10) as above, one blob from 8 s with 40 units, 33 in one frame at 10 s: short
     # of the 35 that take B in (A's 30 and held_share of B's 10), not of the 32.5 that keep it
     # (held_keep_share); one frame short forgot B for good (the two-crowd world's tuning seed 12 at 13.3 s)
-    def parts(t):
-        n = 1.2 * t
-        if t < 8.0:
-            return [(0.0, n, 30.0, 4.0), (13.0, n, 10.0, 3.0)]
-        return [(3.25, n, 33.0 if abs(t - 10.0) < 0.05 else 40.0, 10.0)]
+    parts = lambda t: _one_blob_from_8s(t, at_10s=33.0)                       # noqa: E731
     (a,) = run(parts, 10.5, jitter_m=0.0)
     assert [ls.crowd.crowd_id for ls in run.state.inside[a.crowd_id]] != []
     run(parts, 10.5, jitter_m=0.0, cfg=GroupingConfig(held_keep_share=0.5))
@@ -803,11 +809,7 @@ def test_a_blob_holding_a_crowd_keeps_it_through_a_frame_that_misses_the_blob():
     # centre (3.25 m from A), is held there by its walk (step 6), not at A's own place (field-alt100-lm6
     # seed 4 at 23.1 s: a blob holding two mingling crowds, missed, was placed at one crowd's walk, 4.4 m
     # from their joint centroid)
-    def parts(t):
-        n = 1.2 * t
-        if t < 8.0:
-            return [(0.0, n, 30.0, 4.0), (13.0, n, 10.0, 3.0)]
-        return [] if abs(t - 10.0) < 0.05 else [(3.25, n, 40.0, 10.0)]
+    parts = lambda t: _one_blob_from_8s(t, at_10s=None)                       # noqa: E731
     (a,) = run(parts, 10.1, jitter_m=0.0)      # its last frame at 10 s
     assert a.unseen_s > 0.0 and list(run.state.inside) == [a.crowd_id]
     assert a.estimate.east_m == pytest.approx(3.25, abs=0.05) and a.estimate.north_m == pytest.approx(12.0, abs=0.05)
