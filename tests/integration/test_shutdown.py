@@ -92,3 +92,38 @@ def test_a_service_whose_worker_ignores_the_stop_still_exits_cleanly(tmp_path):
     assert rc == 0, err[-2000:]
     assert "still running 2 s after the stop: stubborn" in err
     assert "stopping" in err
+
+
+def test_a_publish_racing_close_is_a_counted_drop_not_an_error():
+    """A publisher that passed the closed check as another thread closed the bus: zenoh raises
+    "session closed" inside the put; the bus counts it as a drop (it raised on the code before)."""
+    code = """
+        import sys
+        from uvteam.bus import BusConfig
+        from uvteam.io.zenoh_bus import ZenohBus
+        from uvteam.messages import Status
+
+        bus = ZenohBus.open(BusConfig(listen=(sys.argv[1],)))
+        real = bus.session
+
+        class ClosesFirst:           # the other thread's close() lands between the check and the put
+            def __getattr__(self, name):
+                return getattr(real, name)
+
+            def declare_publisher(self, *a, **kw):
+                bus.close()
+                return real.declare_publisher(*a, **kw)
+
+            def put(self, *a, **kw):
+                bus.close()
+                return real.put(*a, **kw)
+
+        bus.session = ClosesFirst()
+        bus.publish("uvteam/t/loc1/status", Status("loc1", "localizer", 1.0, "none", 0, 0, 0, {}, ""))
+        bus._closed = False
+        bus.put_raw("uvteam/t/loc1/status", b"x")
+        print("dropped_closed", bus.dropped_closed, "published", bus.published, flush=True)
+    """
+    rc, out, err = _run(code, f"tcp/127.0.0.1:{free_port()}")
+    assert rc == 0, err[-2000:]
+    assert out.split()[-4:] == ["dropped_closed", "2", "published", "0"], out

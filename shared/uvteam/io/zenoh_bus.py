@@ -8,6 +8,8 @@ unclosed session with a callback subscriber hangs the interpreter at exit), so u
 context manager. After :meth:`ZenohBus.close` a publish is dropped and counted (``dropped_closed``)
 without calling zenoh: a thread still inside a zenoh call while the interpreter finalises is
 cancelled through zenoh's native frames, and the process aborts ("FATAL: exception not rethrown").
+A publish that passed that check while another thread closed the bus gets zenoh's "session closed"
+error: counted and dropped the same way.
 """
 
 from __future__ import annotations
@@ -160,13 +162,19 @@ class ZenohBus(Decoding):
         if self._closed:
             self._drop_closed(key)
             return
-        pub = self._pubs.get((key, type(msg)))
-        if pub is None:
-            pub = self.session.declare_publisher(
-                key, encoding=self._zenoh.Encoding(messages.encoding_of(type(msg))), express=express,
-                congestion_control=self._zenoh.CongestionControl.BLOCK)
-            self._pubs[(key, type(msg))] = pub
-        pub.put(raw)
+        try:
+            pub = self._pubs.get((key, type(msg)))
+            if pub is None:
+                pub = self.session.declare_publisher(
+                    key, encoding=self._zenoh.Encoding(messages.encoding_of(type(msg))), express=express,
+                    congestion_control=self._zenoh.CongestionControl.BLOCK)
+                self._pubs[(key, type(msg))] = pub
+            pub.put(raw)
+        except Exception:
+            if not self._closed:
+                raise
+            self._drop_closed(key)   # closed by another thread after the check: zenoh said "session closed"
+            return
         self.published += 1
 
     def put_raw(self, key: str, raw: bytes, encoding: str | None = None) -> None:
@@ -177,8 +185,13 @@ class ZenohBus(Decoding):
         if self._closed:
             self._drop_closed(key)
             return
-        self.session.put(key, raw, encoding=self._zenoh.Encoding(encoding) if encoding else self._encoding,
-                         congestion_control=self._zenoh.CongestionControl.BLOCK)
+        try:
+            self.session.put(key, raw, encoding=self._zenoh.Encoding(encoding) if encoding else self._encoding,
+                             congestion_control=self._zenoh.CongestionControl.BLOCK)
+        except Exception:
+            if not self._closed:
+                raise
+            self._drop_closed(key)
 
     def _drop_closed(self, key: str) -> None:
         self.dropped_closed += 1
