@@ -22,8 +22,9 @@ BANDS_M = ((-np.inf, 0.0, "overlapping"), (0.0, 1.0, "apart by up to 1 m"), (1.0
            (2.0, np.inf, "apart by more than 2 m"))
 
 
-def one_seed(path: str, seed: int) -> list[tuple[float, bool]]:
-    """(footprint gap m, mingling) for each frame of one seed with two crowds reported."""
+def one_seed(path: str, seed: int) -> list[tuple[float, bool, float, tuple[int, int], float]]:
+    """(footprint gap m, mingling, frame time s, the two crowds' ids, their distance m) for each frame of one
+    seed with two crowds reported (docs/overlap_keep_probe.py uses the last three)."""
     sc = load_scenario(path)
     if len(sc.crowds) != 2:
         raise SystemExit("a scenario with two crowds, please")
@@ -39,7 +40,11 @@ def one_seed(path: str, seed: int) -> list[tuple[float, bool]]:
             hi = np.array([r.estimate.footprint_en_m.max(0) for r in reported])
             gap = np.maximum(0.0, np.maximum(lo[0] - hi[1], lo[1] - hi[0]))
             overlap = (np.minimum(hi[0], hi[1]) - np.maximum(lo[0], lo[1])).min()
-            rows.append((float(np.hypot(*gap)) if overlap < 0 else -float(overlap), closest_m < 2.0))
+            t = max(r.track.stamp_s for r in reported)   # the frame's (a crowd held by its walk has an older one)
+            d = float(np.hypot(reported[0].estimate.east_m - reported[1].estimate.east_m,
+                               reported[0].estimate.north_m - reported[1].estimate.north_m))
+            rows.append((float(np.hypot(*gap)) if overlap < 0 else -float(overlap), closest_m < 2.0, t,
+                         tuple(sorted(r.crowd_id for r in reported)), d))
         return mingling(reported, cfg)
 
     crowds._mingling = looked_at
@@ -52,8 +57,8 @@ def one_seed(path: str, seed: int) -> list[tuple[float, bool]]:
 
 def main(path: str, seeds: list[int]) -> None:
     rows = [r for s in seeds for r in one_seed(path, s)]
-    gap = np.array([g for g, _ in rows])
-    mingle = np.array([m for _, m in rows], bool)
+    gap = np.array([r[0] for r in rows])
+    mingle = np.array([r[1] for r in rows], bool)
     print(f"{path} seeds {seeds}: {len(rows)} frames with two crowds reported, walkers mingling in {mingle.sum()}")
     for lo, hi, name in BANDS_M:
         k = (gap > lo) & (gap <= hi) if np.isfinite(lo) else gap <= hi

@@ -6,68 +6,38 @@ of the product. Use it on tuning seeds.
     .venv/bin/python docs/overlap_keep_probe.py scenarios/real-alt60-lm6-two.toml 1
     .venv/bin/python docs/overlap_keep_probe.py scenarios/real-alt60-lm6-two.toml 2 3 11 12 13 14 15 16
 
-Runs each seed through the experiment (rendered frames, the deployed node classes) and, in every frame with two
-crowds reported, notes the gap between their footprints (0 or less: overlapping), the distance between them, and
-whether any two walkers of the two crowds are within 2 m. Then, for a rule "join two crowds whose footprints
-overlap by at least G m and whose distance changed by less than S m/s over the last W s" (a straight line fitted
-to the distance, both reported in at least 80 % of those frames), prints how many frames it would join and how
-many of those have the walkers within 2 m.
+Runs each seed through the experiment (rendered frames, the deployed node classes; the frames of
+``docs/mingling_gaps.py``: every frame with two crowds reported, the gap between their footprints, 0 or less when
+they overlap, and whether any two walkers of the two crowds are within 2 m). Then, for a rule "join two crowds
+whose footprints overlap by at least G m and whose distance changed by less than S m/s over the last W s" (a
+straight line fitted to the distance, both reported in at least 80 % of those frames), prints how many frames it
+would join and how many of those have the walkers within 2 m.
 """
 
 import sys
 
 import numpy as np
 
-import uvteam.crowds as crowds
-from uvteam.io.files import load_scenario
-from uvteam_sim.experiment import SimTeam
+from mingling_gaps import one_seed
 
 RULES = [(w, g, s) for w in (2.0, 4.0, 6.0) for g in (0.0, 0.5, 1.0) for s in (0.1, 0.2)]
 
 
-def frames(path: str, seed: int) -> list[tuple[float, float, bool, list]]:
-    """(time s, footprint gap m, walkers within 2 m, the pair's distances so far) per frame with two reported."""
-    sc = load_scenario(path)
-    if len(sc.crowds) != 2:
-        raise SystemExit("a scenario with two crowds, please")
-    team = SimTeam(sc, seed, "pixels")
-    world, mingling, rows, seen = team.sim.world, crowds._mingling, [], {}
-
-    def looked_at(reported, cfg):
-        if len(reported) == 2:
-            a, b = world.members(0), world.members(1)
-            close = bool(np.sqrt(((a[:, None] - b[None]) ** 2).sum(-1)).min() < 2.0)
-            lo = np.array([r.estimate.footprint_en_m.min(0) for r in reported])
-            hi = np.array([r.estimate.footprint_en_m.max(0) for r in reported])
-            overlap = (np.minimum(hi[0], hi[1]) - np.maximum(lo[0], lo[1])).min()
-            gap = -float(overlap) if overlap >= 0 else float(np.hypot(*np.maximum(0, np.maximum(lo[0] - hi[1],
-                                                                                                lo[1] - hi[0]))))
-            t = max(r.track.stamp_s for r in reported)   # the frame's (a crowd held by its walk has an older one)
-            pair = tuple(sorted(r.crowd_id for r in reported))
-            d = float(np.hypot(reported[0].estimate.east_m - reported[1].estimate.east_m,
-                               reported[0].estimate.north_m - reported[1].estimate.north_m))
-            seen.setdefault(pair, []).append((t, d))
-            rows.append((t, gap, close, list(seen[pair])))
-        return mingling(reported, cfg)
-
-    crowds._mingling = looked_at
-    try:
-        team.run()
-    finally:
-        crowds._mingling = mingling
-    return rows
-
-
 def kept_distance(history: list, t: float, window_s: float, max_m_s: float, rate_hz: float = 10.0) -> bool:
+    """Whether the distance in ``history`` ((time s, m), up to ``t``) changed by less than ``max_m_s``."""
     pts = np.array([(s, d) for s, d in history if t - window_s <= s <= t])
     if len(pts) < 0.8 * window_s * rate_hz or pts[0, 0] > t - 0.9 * window_s:
         return False
-    slope = np.polyfit(pts[:, 0] - t, pts[:, 1], 1)[0]
-    return abs(slope) < max_m_s
+    return abs(np.polyfit(pts[:, 0] - t, pts[:, 1], 1)[0]) < max_m_s
 
 
 def main(path: str, seeds: list[int]) -> None:
-    rows = [r for s in seeds for r in frames(path, s)]
+    rows = []
+    for seed in seeds:
+        seen: dict = {}
+        for gap, close, t, pair, d in one_seed(path, seed):
+            seen.setdefault(pair, []).append((t, d))
+            rows.append((t, gap, close, list(seen[pair])))
     close = np.array([r[2] for r in rows], bool)
     print(f"{path} seeds {seeds}: {len(rows)} frames with two crowds reported, walkers within 2 m in {close.sum()}")
     for w, g, s in RULES:
