@@ -159,39 +159,42 @@ class ZenohBus(Decoding):
         """Encode, validate and put ``msg`` on ``key``; zenoh's encoding names its schema
         (``application/msgpack;crowds/3``), so a receiver can tell what came without decoding it."""
         raw = messages.encode(msg)
-        if self._closed:
-            self._drop_closed(key)
-            return
-        try:
-            pub = self._pubs.get((key, type(msg)))
-            if pub is None:
-                pub = self.session.declare_publisher(
-                    key, encoding=self._zenoh.Encoding(messages.encoding_of(type(msg))), express=express,
-                    congestion_control=self._zenoh.CongestionControl.BLOCK)
-                self._pubs[(key, type(msg))] = pub
-            pub.put(raw)
-        except Exception:
-            if not self._closed:
-                raise
-            self._drop_closed(key)   # closed by another thread after the check: zenoh said "session closed"
-            return
-        self.published += 1
+        if self._send(key, lambda: self._publisher(key, type(msg), express).put(raw)):
+            self.published += 1
+
+    def _publisher(self, key: str, cls: type, express: bool):
+        """The publisher of ``cls`` on ``key``, declared on first use."""
+        pub = self._pubs.get((key, cls))
+        if pub is None:
+            pub = self.session.declare_publisher(
+                key, encoding=self._zenoh.Encoding(messages.encoding_of(cls)), express=express,
+                congestion_control=self._zenoh.CongestionControl.BLOCK)
+            self._pubs[(key, cls)] = pub
+        return pub
 
     def put_raw(self, key: str, raw: bytes, encoding: str | None = None) -> None:
         """Send bytes as they are: a recording played back (``encoding`` as recorded, e.g.
         ``application/msgpack;fix/2``), or garbage in fault-injection tests (plain ``application/msgpack``).
         Blocking under congestion as :meth:`publish` does: zenoh's default drops, and a replay as fast as
         it goes on a loaded machine lost a payload."""
+        self._send(key, lambda: self.session.put(
+            key, raw, encoding=self._zenoh.Encoding(encoding) if encoding else self._encoding,
+            congestion_control=self._zenoh.CongestionControl.BLOCK))
+
+    def _send(self, key: str, put: Callable[[], Any]) -> bool:
+        """``put()`` unless the bus is closed; True when it ran. A put that meets a close (another thread's,
+        after the check: zenoh says "session closed") is dropped and counted as one after it is."""
         if self._closed:
             self._drop_closed(key)
-            return
+            return False
         try:
-            self.session.put(key, raw, encoding=self._zenoh.Encoding(encoding) if encoding else self._encoding,
-                             congestion_control=self._zenoh.CongestionControl.BLOCK)
+            put()
         except Exception:
             if not self._closed:
                 raise
             self._drop_closed(key)
+            return False
+        return True
 
     def _drop_closed(self, key: str) -> None:
         self.dropped_closed += 1
