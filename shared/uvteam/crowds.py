@@ -724,7 +724,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
                     drifted.add(pair)
                 since = holds[x] = since[:-1]
                 released.add(x)
-    came_out = _came_out(state, estimates, trk, stamp_s, cfg)
+    came_out = _came_out(state, estimates, en, trk, stamp_s, cfg)
     for k, (host, _) in came_out.items():   # a crowd a blob held (step 8) walks out of it: two crowds at once
         if host in live:
             apart.add(_pair(host, trk[k].track_id))
@@ -781,17 +781,16 @@ def _mingling(crowds: list[ReportedCrowd], cfg: GroupingConfig) -> list[Reported
     return out
 
 
-def _came_out(state: GroupingState, estimates: tuple[CrowdEstimate, ...], trk: list[CrowdTrack], stamp_s: float,
-              cfg: GroupingConfig) -> dict[int, tuple[int, int]]:
-    """Step 8's crowds walking out of the blob that held them: per estimate (index), the host's track and
-    the held crowd's id. An estimate is a held crowd coming out when its track was first seen after the
-    crowd was last seen on its own, it has ``held_share`` of the crowd's usual moving pixels, and it lies
-    nearer where the crowd's walk has it than where the host's does (within ``near_m``); the nearest such
-    estimate per held crowd. Two crowds passing each other (the two-crowd world's tuning seed 12 at 14.7 s)
-    came out of one blob 9-10 m apart and, the part that came out young in the host's footprint, were one
-    crowd until a drift that never came."""
+def _came_out(state: GroupingState, estimates: tuple[CrowdEstimate, ...], en: np.ndarray, trk: list[CrowdTrack],
+              stamp_s: float, cfg: GroupingConfig) -> dict[int, tuple[int, int]]:
+    """Step 8's crowds walking out of the blob that held them: per estimate (index; ``en`` their east/north m),
+    the host's track and the held crowd's id. An estimate is a held crowd coming out when its track was first seen
+    after the crowd was last seen on its own, it has ``held_share`` of the crowd's usual moving pixels, and it
+    lies nearer where the crowd's walk has it than where the host's does (within ``near_m``); the nearest such
+    estimate per held crowd. Two crowds passing each other (the two-crowd world's tuning seed 12 at 14.7 s) came
+    out of one blob 9-10 m apart and, the part that came out young in the host's footprint, were one crowd until a
+    drift that never came."""
     out: dict[int, tuple[int, int]] = {}
-    en = np.array([[c.east_m, c.north_m] for c in estimates], float).reshape(-1, 2)
     for cid, held in state.inside.items():
         host = state.last_seen.get(cid)
         if host is None:
