@@ -55,7 +55,8 @@ def main(path: str, seed: int, t0: float, t1: float, lags: list[int]) -> None:
             H = M @ H
         old = ring[-k][0]
         valid = det._seen_by(H, w, h)
-        return det._changed(curr, motion._warper(H, w, h)(old, cv2.INTER_LINEAR, 0), valid, lagged=True)
+        return det._changed(curr, motion._local_range(curr), motion._warper(H, w, h)(old, cv2.INTER_LINEAR, 0), valid,
+                            lagged=True)
 
     def report(det, curr, out, t: float) -> None:
         h, w = curr.shape

@@ -22,7 +22,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from uvteam.vision.motion import MotionDetector
+from uvteam.vision.motion import MotionDetector, _local_range
 from uvteam.vision.uav import UavVisionConfig
 
 AUAIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "uav_auair_subset" / "images"
@@ -63,10 +63,11 @@ def main(reg_err_px: float) -> None:
             A = np.float32([[1, 0, cx - ox + err[j, 0]], [0, 1, cy - oy + err[j, 1]]])
             return cv2.warpAffine(old, A, SIZE, flags=cv2.INTER_LINEAR)
 
-        masks = {"two-frame test": dets["own"]._changed(curr, onto_curr(3), valid)}
+        curr_range = _local_range(curr)
+        masks = {"two-frame test": dets["own"]._changed(curr, curr_range, onto_curr(3), valid)}
         for name, det in dets.items():
-            a = det._changed(curr, onto_curr(2), valid, lagged=True)
-            b = det._changed(curr, onto_curr(0), valid, lagged=True)
+            a = det._changed(curr, curr_range, onto_curr(2), valid, lagged=True)
+            b = det._changed(curr, curr_range, onto_curr(0), valid, lagged=True)
             if name == "own":
                 masks["one lagged comparison, own floor"] = a
             masks[f"lagged test, {name} floor"] = cv2.bitwise_and(a, b)

@@ -79,6 +79,39 @@ def test_history_warped_in_its_box_is_the_whole_warped_history(speckle):
             assert np.array_equal(cv2.morphologyEx(ref, cv2.MORPH_OPEN, MotionDetector(cfg)._k_open), got), k
 
 
+def _perspective(tilt):
+    """A homography between two views of a hovering, wobbling camera: a shift, a small turn and ``tilt``
+    of projective part (per px), far from affine over a 1280 x 720 frame."""
+    return np.array([[1.002, 0.004, 2.7], [-0.003, 0.998, -1.9], [tilt, -0.6 * tilt, 1.0]])
+
+
+@pytest.mark.parametrize("interp", [cv2.INTER_LINEAR, cv2.INTER_NEAREST])
+def test_a_perspective_warp_through_source_maps_is_warp_perspectives(interp):
+    # the maps are exact every 8 px and bilinear between (within 0.001 px): they round to another 1/32 px
+    # only where the exact source lies within a hair of a step
+    img = cv2.cvtColor(texture(720, 1280, seed=4), cv2.COLOR_BGR2GRAY)
+    M = _perspective(2e-5)
+    assert motion._source_maps(M, 1280, 720) is not None
+    warp = motion._warper(M, 1280, 720)
+    got = warp(img, interp, 7)
+    ref = cv2.warpPerspective(img, M, (1280, 720), flags=interp, borderMode=cv2.BORDER_CONSTANT, borderValue=7)
+    diff = cv2.absdiff(got, ref)
+    if interp == cv2.INTER_LINEAR:   # a step of 1/32 px moves a pixel by a grey level, seldom more
+        assert np.count_nonzero(diff) < 0.005 * diff.size and np.count_nonzero(diff > 1) < 1e-4 * diff.size
+    else:                            # rounded to the other whole pixel where the source is a hair from .5
+        assert np.count_nonzero(diff) < 5e-4 * diff.size
+    roi = (300, 120, 700, 500)
+    assert np.array_equal(warp(img, interp, 7, roi), got[120:500, 300:700])    # a part is the whole's part
+
+
+def test_a_warp_that_bends_between_the_maps_points_is_warp_perspective():
+    img = cv2.cvtColor(texture(720, 1280, seed=4), cv2.COLOR_BGR2GRAY)
+    M = _perspective(1e-3)    # a steep view: over 8 px the source bends by more than the maps allow
+    assert motion._source_maps(M, 1280, 720) is None
+    ref = cv2.warpPerspective(img, M, (1280, 720), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    assert np.array_equal(motion._warper(M, 1280, 720)(img, cv2.INTER_LINEAR, 0), ref)
+
+
 def test_plain_pipeline_and_interleaved_comparison():
     from uvteam_ground.bench_vision import PlainPipeline, compare
 

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from uvteam.vision.landmarks import DEFAULT_COLORS, LandmarkConfig, detect_landmarks
-from uvteam.vision.motion import MotionConfig, MotionDetector, _windows, bounds_for_altitude
+from uvteam.vision.motion import MotionConfig, MotionDetector, _local_range, _windows, bounds_for_altitude
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
 GOLDEN = json.loads((Path(__file__).resolve().parents[1] / "data" / "golden_motion.json").read_text())
@@ -569,7 +569,7 @@ def test_the_lagged_test_marks_where_a_walker_is_not_where_it_was():
         x = 100 + 4 * k
         img[117:123, x - 3:x + 3] = 10
         det.update(img, 0.1 * k)
-    mask = det._lagged_moving(det._prev, 0.7)
+    mask = det._lagged_moving(det._prev, _local_range(det._prev), 0.7)
     ys, xs = np.nonzero(mask)
     assert len(xs) and xs.min() >= x - 4 and xs.max() <= x + 3 and ys.min() >= 116 and ys.max() <= 123
     with pytest.raises(ValueError):

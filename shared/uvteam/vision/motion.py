@@ -97,6 +97,8 @@ FORWARD_BACKWARD_PX = 1.0   # a corner tracked there and back must land within t
 CORNER_BLOCK_PX = 5         # goodFeaturesToTrack's block size
 LK_ITERATIONS, LK_EPSILON = 20, 0.03
 AFFINE_TOLERANCE_PX = 0.05  # a homography moving no frame pixel more than this from its affine part is warped affinely
+MAP_GRID_PX = 8             # a perspective warp's source computed exactly on this grid, bilinearly between
+MAP_TOLERANCE_PX = 0.005    # ... when that is this close to exact everywhere (remap rounds to 1/32 px)
 POOLED_LABEL_MIN_MERGE_PX = 8   # blobs joined over at least this many px are labelled on a 2x2 max-pooled mask
 POOLED_LABEL_MIN_SIDE_PX = 64
 NEAR_LEVELS = 1             # pyramid levels searched around where the last camera motion takes a corner
@@ -362,16 +364,48 @@ def _explains(reg: Registration) -> bool:
     return reg.H_curr_from_prev is not None and reg.n_inliers >= MIN_INLIER_FRACTION * reg.n_tracked
 
 
-def _warper(M: np.ndarray, w: int, h: int):
+def _source_maps(M: np.ndarray, w: int, h: int, scratch: dict | None = None) -> tuple[np.ndarray, np.ndarray] | None:
+    """Where each pixel of a (w, h) image warped by M takes its value from (source x and y, each (h, w)
+    float32), computed exactly every ``MAP_GRID_PX`` pixels and bilinearly in between: what
+    ``cv2.warpPerspective`` computes per pixel (a division each, the dearest part of it), for about half
+    its cost. None when the warp bends more than ``MAP_TOLERANCE_PX`` between the grid's points.
+    ``scratch``: the maps are written into the arrays kept there (made on first use), as fresh arrays of
+    this size each frame slowed the whole pipeline by a tenth; the maps last until the next call with it."""
+    g = MAP_GRID_PX
+    gw, gh = -(-w // g) + 2, -(-h // g) + 2     # one point beyond each edge: no pixel is extrapolated
+    Minv = np.linalg.inv(M)
+
+    def source(xs: np.ndarray, ys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:   # on the grid xs x ys
+        inv_z = 1.0 / np.add.outer(Minv[2, 1] * ys + Minv[2, 2], Minv[2, 0] * xs)
+        return tuple(np.add.outer(Minv[r, 1] * ys + Minv[r, 2], Minv[r, 0] * xs) * inv_z for r in (0, 1))
+
+    xs, ys = (np.arange(gw) - 1) * g + (g - 1) / 2.0, (np.arange(gh) - 1) * g + (g - 1) / 2.0
+    nodes = source(xs, ys)
+    # bilinear interpolation is worst midway between four points: compare it with the exact source there
+    for n, exact in zip(nodes, source(xs[:-1] + g / 2.0, ys[:-1] + g / 2.0)):
+        if np.abs(0.25 * (n[:-1, :-1] + n[1:, :-1] + n[:-1, 1:] + n[1:, 1:]) - exact).max() > MAP_TOLERANCE_PX:
+            return None
+    if scratch is None:
+        scratch = {}
+    if scratch.get("shape") != (gh * g, gw * g):
+        scratch.update(shape=(gh * g, gw * g), maps=[np.empty((gh * g, gw * g), np.float32) for _ in range(2)])
+    return tuple(cv2.resize(n.astype(np.float32), (gw * g, gh * g), dst=buf, interpolation=cv2.INTER_LINEAR)[g:g + h, g:g + w]
+                 for n, buf in zip(nodes, scratch["maps"]))
+
+
+def _warper(M: np.ndarray, w: int, h: int, scratch: dict | None = None):
     """A warp by M for (w, h) images: affine (2.5x faster) when M's projective part moves no pixel of
-    the frame by more than 0.05 px, as between two frames of a hovering camera; else perspective.
-    ``roi`` (x0, y0, x1, y1): only that part of the warped image (the same pixels, computed alone)."""
+    the frame by more than 0.05 px, as between two frames of a hovering camera; else through the
+    source maps (:func:`_source_maps`, made once for every warp by M, in ``scratch``: one warper's at
+    a time), or by ``cv2.warpPerspective`` when those would bend. ``roi`` (x0, y0, x1, y1): only that
+    part of the warped image (the same pixels, computed alone)."""
     A = M[:2] / M[2, 2]
     corners = np.array([[0.0, 0.0], [w - 1.0, 0.0], [w - 1.0, h - 1.0], [0.0, h - 1.0]])
     hom = np.column_stack([corners, np.ones(4)])
     p = hom @ M.T
     exact = p[:, :2] / p[:, 2:3]
     affine = np.abs(exact - hom @ A.T).max() < AFFINE_TOLERANCE_PX
+    maps: dict = {}
 
     def warp(img: np.ndarray, interp: int, border: int, roi: tuple[int, int, int, int] | None = None) -> np.ndarray:
         x0, y0, x1, y1 = roi if roi is not None else (0, 0, w, h)
@@ -380,9 +414,21 @@ def _warper(M: np.ndarray, w: int, h: int):
             Ar[:, 2] -= (x0, y0)
             return cv2.warpAffine(img, Ar, (x1 - x0, y1 - y0), flags=interp, borderMode=cv2.BORDER_CONSTANT,
                                   borderValue=border)
-        Mr = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]]) @ M if roi is not None else M
-        return cv2.warpPerspective(img, Mr, (x1 - x0, y1 - y0), flags=interp, borderMode=cv2.BORDER_CONSTANT,
-                                   borderValue=border)
+        if "source" not in maps:
+            maps["source"] = _source_maps(M, w, h, scratch)
+        src = maps["source"]
+        if src is None:
+            Mr = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]]) @ M if roi is not None else M
+            return cv2.warpPerspective(img, Mr, (x1 - x0, y1 - y0), flags=interp, borderMode=cv2.BORDER_CONSTANT,
+                                       borderValue=border)
+        if interp == cv2.INTER_NEAREST:
+            # the source rounded to whole pixels once: remap's nearest on float maps costs 3x as much
+            if "nearest" not in maps:
+                maps["nearest"] = (cv2.convertMaps(*src, cv2.CV_16SC2, nninterpolation=True)[0], None)
+            src = maps["nearest"]
+        sx, sy = src
+        return cv2.remap(img, sx[y0:y1, x0:x1], None if sy is None else sy[y0:y1, x0:x1], interp,
+                         borderMode=cv2.BORDER_CONSTANT, borderValue=border)
     return warp
 
 
@@ -478,6 +524,10 @@ class MotionDetector:
         self._pending: _Registered | None = None   # this frame, registered ahead of update()
         # the frames before this one, for step 3's lagged test: (stamp, processed frame, H onto this frame)
         self._older: list[tuple[float, np.ndarray, np.ndarray]] = []
+        # where the warps' source maps are written: this frame's camera motion's (kept through update()),
+        # and the lagged test's (one comparison at a time)
+        self._maps_now: dict = {}
+        self._maps_lagged: dict = {}
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
         # a square closing: it joins members up to merge_px apart, and costs the same at any size
         self._k_close = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.merge_px, cfg.merge_px))
@@ -547,14 +597,15 @@ class MotionDetector:
             self._older = []
             return MotionResult.empty(reg)
         h, w = curr.shape
-        warp = _warper(reg.H_curr_from_prev, w, h)
-        moving = self._moving(prev, curr, reg.H_curr_from_prev, warp)
+        warp = _warper(reg.H_curr_from_prev, w, h, self._maps_now)
+        curr_range = _local_range(curr) if self.cfg.gradient_gain > 0 else None
+        moving = self._moving(prev, curr, reg.H_curr_from_prev, warp, curr_range)
         cut = None
         if self.cfg.lag_s > 0:
             self._keep_older(prev, reg.H_curr_from_prev, stamp_s, dt_s)
             cut, self._cut_age, self._cut_box = self._aged(moving, warp, reg.H_curr_from_prev, dt_s,
                                                            self._cut_age, self._cut_box)
-            moving = cv2.bitwise_or(moving, self._lagged_moving(curr, stamp_s))
+            moving = cv2.bitwise_or(moving, self._lagged_moving(curr, curr_range, stamp_s))
         recent = self._history(moving, warp, reg.H_curr_from_prev, dt_s)
         if cut is None:
             cut = recent
@@ -702,11 +753,11 @@ class MotionDetector:
         S = np.array([[c, 0.0, 0.5 * c - 0.5], [0.0, c, 0.5 * c - 0.5], [0.0, 0.0, 1.0]])
         return replace(reg, H_curr_from_prev=np.linalg.inv(S) @ reg.H_curr_from_prev @ S)
 
-    def _moving(self, prev: np.ndarray, curr: np.ndarray, M: np.ndarray, warp) -> np.ndarray:
+    def _moving(self, prev: np.ndarray, curr: np.ndarray, M: np.ndarray, warp, curr_range: np.ndarray | None) -> np.ndarray:
         """Step 3: the pixels that changed after compensation, where the previous frame covers this one,
         with speckle removed (``speckle``) and the frame's own edge cleared."""
         valid = self._seen_by(M, *curr.shape[::-1])
-        return self._cleaned(self._changed(curr, warp(prev, cv2.INTER_LINEAR, 0), valid))
+        return self._cleaned(self._changed(curr, curr_range, warp(prev, cv2.INTER_LINEAR, 0), valid))
 
     def _seen_by(self, M: np.ndarray, w: int, h: int) -> np.ndarray:
         """Where an earlier frame, warped onto this one by M, covers it: its corners warped, minus a border."""
@@ -716,10 +767,12 @@ class MotionDetector:
         b = 2 * self.cfg.border_px + 1
         return cv2.erode(valid, np.ones((b, b), np.uint8))
 
-    def _changed(self, curr: np.ndarray, warped: np.ndarray, valid: np.ndarray, lagged: bool = False) -> np.ndarray:
-        """Step 3's test of ``curr`` against an earlier frame ``warped`` onto it, inside ``valid`` (where the
-        noise is measured too). ``lagged``: one of the lagged test's two comparisons, with its own floor and
-        noise_k, and no box test."""
+    def _changed(self, curr: np.ndarray, curr_range: np.ndarray | None, warped: np.ndarray, valid: np.ndarray,
+                 lagged: bool = False) -> np.ndarray:
+        """Step 3's test of ``curr`` (``curr_range``: its :func:`_local_range`, made once a frame for every
+        test, None without ``gradient_gain``) against an earlier frame ``warped`` onto it, inside ``valid``
+        (where the noise is measured too). ``lagged``: one of the lagged test's two comparisons, with its
+        own floor and noise_k, and no box test."""
         cfg = self.cfg
         diff = cv2.absdiff(curr, warped)
         if cfg.gradient_gain > 0:
@@ -728,7 +781,7 @@ class MotionDetector:
             # something moved, one of the two frames shows the flat ground it left or covers
             base, k = (cfg.lag_diff_floor, cfg.lag_noise_k) if lagged else (cfg.diff_floor, cfg.noise_k)
             floor = max(base, k * _robust_sigma(diff, valid))
-            g = cv2.min(_local_range(curr), _local_range(warped))
+            g = cv2.min(curr_range, _local_range(warped))
             limit = cv2.min(cv2.convertScaleAbs(g, alpha=cfg.gradient_gain, beta=floor), int(cfg.diff_threshold))
             moving = cv2.compare(diff, limit, cv2.CMP_GT)
             if cfg.box_k > 0 and not lagged:
@@ -762,7 +815,7 @@ class MotionDetector:
         self._older = [(t, f, M @ H) for t, f, H in self._older if stamp_s - t <= keep_s + 1e-6]
         self._older.append((stamp_s - dt_s, prev, M))
 
-    def _lagged_moving(self, curr: np.ndarray, stamp_s: float) -> np.ndarray:
+    def _lagged_moving(self, curr: np.ndarray, curr_range: np.ndarray | None, stamp_s: float) -> np.ndarray:
         """Step 3's lagged test: where this frame differs both from the frame ``lag_s`` ago and from the one
         twice as long ago (the kept frames nearest those times), each by step 3's per-pixel test. A walker
         of little contrast that moves a pixel a frame changes only the crescent it steps into between two
@@ -781,9 +834,9 @@ class MotionDetector:
             if stamp_s - t < 0.75 * want_s or t >= used_s:
                 return np.zeros((h, w), np.uint8)
             used_s = t
-            warped = _warper(H, w, h)(old, cv2.INTER_LINEAR, 0)
+            warped = _warper(H, w, h, self._maps_lagged)(old, cv2.INTER_LINEAR, 0)
             valid = self._seen_by(H, w, h)
-            m = self._changed(curr, warped, valid, lagged=True)
+            m = self._changed(curr, curr_range, warped, valid, lagged=True)
             out = m if out is None else cv2.bitwise_and(out, m)
         return self._cleaned(out)
 
