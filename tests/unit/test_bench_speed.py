@@ -169,5 +169,6 @@ def test_rendered_frames_entry_point():
     if not (Path(__file__).resolve().parents[3] / "shared" / "scenarios").is_dir():
         pytest.skip("../shared/scenarios is not beside the checkout")
     sets = eps["rendered"].load()(n=3)
-    assert [s[0] for s in sets] == ["rendered paper-fig7-alt50 1280x720", "rendered paper-fig7-alt200 1280x720"]
+    assert [s[0] for s in sets] == ["rendered paper-fig7-alt50 1280x720", "rendered paper-fig7-alt200 1280x720",
+                                    "rendered real-alt120-lm6 1280x720"]
     assert all(len(s[1]) == 3 and s[1][0].shape == (720, 1280, 3) for s in sets)
