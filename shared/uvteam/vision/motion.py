@@ -383,7 +383,8 @@ def _source_maps(M: np.ndarray, w: int, h: int, scratch: dict | None = None) -> 
     nodes = source(xs, ys)
     # bilinear interpolation is worst midway between four points: compare it with the exact source there
     for n, exact in zip(nodes, source(xs[:-1] + g / 2.0, ys[:-1] + g / 2.0)):
-        if np.abs(0.25 * (n[:-1, :-1] + n[1:, :-1] + n[:-1, 1:] + n[1:, 1:]) - exact).max() > MAP_TOLERANCE_PX:
+        # (not <=: a source at infinity, a view through the horizon, is no map either)
+        if not np.abs(0.25 * (n[:-1, :-1] + n[1:, :-1] + n[:-1, 1:] + n[1:, 1:]) - exact).max() <= MAP_TOLERANCE_PX:
             return None
     if scratch is None:
         scratch = {}
