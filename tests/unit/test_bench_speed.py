@@ -111,7 +111,8 @@ def test_a_warp_that_bends_between_the_maps_points_is_warp_perspective():
     horizon = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [-1.0 / 600.0, 0.0, 1.0]])   # a source at infinity at x 600
     with np.errstate(divide="ignore", invalid="ignore"):
         assert motion._source_maps(horizon, 1280, 720) is None
-    ref = cv2.warpPerspective(img, M, (1280, 720), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    ref = cv2.warpPerspective(img, M, (1280, 720), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                              borderValue=0)
     assert np.array_equal(motion._warper(M, 1280, 720)(img, cv2.INTER_LINEAR, 0), ref)
 
 

@@ -390,7 +390,8 @@ def _source_maps(M: np.ndarray, w: int, h: int, scratch: dict | None = None) -> 
         scratch = {}
     if scratch.get("shape") != (gh * g, gw * g):
         scratch.update(shape=(gh * g, gw * g), maps=[np.empty((gh * g, gw * g), np.float32) for _ in range(2)])
-    return tuple(cv2.resize(n.astype(np.float32), (gw * g, gh * g), dst=buf, interpolation=cv2.INTER_LINEAR)[g:g + h, g:g + w]
+    return tuple(cv2.resize(n.astype(np.float32), (gw * g, gh * g), dst=buf,
+                            interpolation=cv2.INTER_LINEAR)[g:g + h, g:g + w]
                  for n, buf in zip(nodes, scratch["maps"]))
 
 
@@ -754,7 +755,8 @@ class MotionDetector:
         S = np.array([[c, 0.0, 0.5 * c - 0.5], [0.0, c, 0.5 * c - 0.5], [0.0, 0.0, 1.0]])
         return replace(reg, H_curr_from_prev=np.linalg.inv(S) @ reg.H_curr_from_prev @ S)
 
-    def _moving(self, prev: np.ndarray, curr: np.ndarray, M: np.ndarray, warp, curr_range: np.ndarray | None) -> np.ndarray:
+    def _moving(self, prev: np.ndarray, curr: np.ndarray, M: np.ndarray, warp,
+                curr_range: np.ndarray | None) -> np.ndarray:
         """Step 3: the pixels that changed after compensation, where the previous frame covers this one,
         with speckle removed (``speckle``) and the frame's own edge cleared."""
         valid = self._seen_by(M, *curr.shape[::-1])
