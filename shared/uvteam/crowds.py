@@ -45,7 +45,11 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    apart, or moving apart or together in ``apart_frames`` frames in a row, stay two crowds. Two crowds
    that close in slowly, or part again after walking as one blob, are then not joined by a frame in
    which their drift is not (yet) significant; a single significant frame, which one crowd's jittering
-   parts do show now and then, latches nothing. Parts latched for their drift alone (not for being
+   parts do show now and then, latches nothing; nor does a drift that does not go on: one whose slope over
+   the later half of the frames fitted is not ``late_share`` of the whole fit's, the same way (a distance
+   that stepped and then held: the two parts of a winding crowd's blob 8.3 m apart, 6.9 m a second later
+   and 6.9-7.4 m the next second fitted -1.2 to -0.5 m/s over the window for ten frames in a row, latched
+   and were reported as two crowds in 21 frames, real-alt60-lm6-winding seed 9 at 30.1-36.7 s). Parts latched for their drift alone (not for being
    ``apart_m`` apart) are one crowd again once, within ``near_m``, the slope of their distance over the
    last ``rejoin_s`` (both seen over most of it) is under half ``max_rel_speed_m_s``, significant or not:
    a loose crowd's rear part whose distance to the rest grew by 1.5 m in a second and then held at
@@ -161,6 +165,7 @@ class GroupingConfig:
     confirm_hits: int = 3         # a crowd is reported once its longest-seen part was seen this often
     apart_m: float = 18.0         # parts once this far apart are two crowds while both are tracked,
     apart_frames: int = 10        # ... and so are parts whose distance changed significantly this many frames in a row,
+    late_share: float = 0.5       # ... each time still changing over the later half of the fit at this share of its pace
     rejoin_s: float = 6.0         # ... until, near, their distance holds over this long (0: never; <= the tracks' trail)
     scatter_s: float = 10.0       # a crowd's radius counts the scatter of its estimates over this long
     scatter_min_points: int = 5   # ... once there are this many
@@ -196,6 +201,8 @@ class GroupingConfig:
             raise ValueError(f"scatter_fast_s must be > 0, got {self.scatter_fast_s}")
         if not (self.steady_per_scatter >= 0.0 and self.steady_min_m >= 0.0):
             raise ValueError("steady_per_scatter and steady_min_m must be >= 0")
+        if not 0.0 <= self.late_share <= 1.0:
+            raise ValueError(f"late_share must be in [0, 1], got {self.late_share}")
         if not (self.apart_m >= self.near_m and self.apart_frames >= 1 and self.rejoin_s >= 0.0):
             raise ValueError(f"apart_m must be >= near_m, apart_frames >= 1 and rejoin_s >= 0, got {self.apart_m}, "
                              f"{self.apart_frames}, {self.rejoin_s}")
@@ -296,7 +303,10 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
             continue
         fit = _distance_slope(trails[i], trails[j], stamp_s, cfg)
         rel = _significant_speed(fit, cfg.significance)
-        if rel > cfg.max_rel_speed_m_s:
+        if rel > cfg.max_rel_speed_m_s and not _goes_on(trails[i], trails[j], stamp_s, fit[0], cfg):
+            if pair in joined:             # a step in their distance, not a drift: no streak, one crowd as before
+                parent[root(j)] = root(i)
+        elif rel > cfg.max_rel_speed_m_s:
             new_streak[pair] = streak.get(pair, 0) + 1
             if new_streak[pair] >= cfg.apart_frames:
                 apart.add(pair)
@@ -328,6 +338,19 @@ def _significant_speed(fit: tuple[float, float] | None, significance: float) -> 
         return float("nan")
     slope, stderr = fit
     return abs(slope) if abs(slope) > significance * stderr else 0.0
+
+
+def _goes_on(a: dict, b: dict, stamp_s: float, slope: float, cfg: GroupingConfig) -> bool:
+    """Whether a drift of ``slope`` (m/s, :func:`_distance_slope` over the last ``window_s``) goes on over the
+    later half of the frames it was fitted on, at ``late_share`` of its pace or more, the same way (step 3).
+    A distance that stepped and then held fits a slope over the window, not over its later half; true when
+    the later half has too few frames to tell."""
+    both = [s for s in sorted(set(a) & set(b)) if s > stamp_s - cfg.window_s - 1e-6]
+    half = 0.5 * (both[-1] - both[0]) if both else 0.0
+    if cfg.late_share <= 0.0 or not half > 0.0:
+        return True
+    late = _distance_slope(a, b, stamp_s, replace(cfg, window_s=half, min_span_s=0.5 * half))
+    return late is None or late[0] * np.sign(slope) >= cfg.late_share * abs(slope)
 
 
 def _distance_slope(a: dict, b: dict, stamp_s: float, cfg: GroupingConfig) -> tuple[float, float] | None:

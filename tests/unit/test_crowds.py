@@ -183,6 +183,36 @@ def test_parts_seen_drifting_apart_for_several_frames_stay_two_when_the_drift_st
     assert run.counts[-1] == 1 and run.state.apart == frozenset()
 
 
+def _cut_then(sep_after_cut):
+    """One crowd walking east as one blob for 2 s, then cut in two parts whose distance is sep_after_cut(t)."""
+    def parts(t):
+        if t < 2.0:
+            return [(1.4 * t, 4.0, 40.0, 5.0)]
+        return [(1.4 * t, 0.0, 20.0, 2.0), (1.4 * t, sep_after_cut(t), 20.0, 2.0)]
+    return parts
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_distance_that_steps_and_holds_is_no_drift(seed):
+    # a crowd's blob cut in two parts 8.3 m apart, 7.0 m a second later and so on (real-alt60-lm6-winding
+    # seed 9 at 28-30 s): fitted over the window the distance falls 1.2-0.5 m/s for ten frames in a row, but
+    # over the later half of the frames it holds. Never two crowds (one in every frame of the last 3 s);
+    # without the later half's check the drift latched and the parts were two crowds for 3.4 s
+    step = _cut_then(lambda t: 8.3 if t < 2.2 else 8.3 - 1.3 * min(t - 2.2, 0.8) / 0.8)
+    run(step, 8.0, seed=seed, jitter_m=0.2)
+    assert 2 not in run.counts and run.counts[-30:] == [1] * 30 and run.state.apart == frozenset()
+    run(step, 8.0, seed=seed, jitter_m=0.2, cfg=GroupingConfig(late_share=0.0))
+    assert run.counts.count(2) >= 30
+    # a drift that goes on (0.6 m/s for 6 s) still latches: two crowds at the end
+    run(_cut_then(lambda t: 8.3 - 0.6 * (t - 2.0)), 8.0, seed=seed, jitter_m=0.2)
+    assert run.counts[-10:] == [2] * 10 and len(run.state.apart) == 1
+
+
+def test_grouping_settings_are_checked():
+    with pytest.raises(ValueError):
+        GroupingConfig(late_share=1.5)
+
+
 def test_a_pair_is_forgotten_when_one_of_its_tracks_is_dropped():
     run(lambda t: [(0.0, 0.0, 20.0)] + ([(25.0, 0.0, 10.0)] if t < 1.0 else []), seconds=3.0)
     assert run.state.apart == frozenset() and len(run.state.tracker.tracks) == 1
