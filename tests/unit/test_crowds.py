@@ -109,6 +109,8 @@ def test_groups_and_config_checks():
         GroupingConfig(apart_m=10.0)      # less than near_m
     with pytest.raises(ValueError):
         GroupingConfig(apart_frames=0)
+    with pytest.raises(ValueError):
+        GroupingConfig(late_share=1.5)
 
 
 def test_a_blob_of_one_frame_does_not_pull_a_crowd():
@@ -206,11 +208,6 @@ def test_a_distance_that_steps_and_holds_is_no_drift(seed):
     # a drift that goes on (0.6 m/s for 6 s) still latches: two crowds at the end
     run(_cut_then(lambda t: 8.3 - 0.6 * (t - 2.0)), 8.0, seed=seed, jitter_m=0.2)
     assert run.counts[-10:] == [2] * 10 and len(run.state.apart) == 1
-
-
-def test_grouping_settings_are_checked():
-    with pytest.raises(ValueError):
-        GroupingConfig(late_share=1.5)
 
 
 def test_a_pair_is_forgotten_when_one_of_its_tracks_is_dropped():
