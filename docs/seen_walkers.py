@@ -44,7 +44,8 @@ def main(path: str, seed: int, t0_s: float, t1_s: float) -> None:
         return project(world.camera, pose, np.column_stack([m, world.terrain_up_m(m) + PERSON_CENTRE_HEIGHT_M]))
 
     def px_per_m(pose) -> float:
-        return world.camera.focal_px / (pose.up_m - float(world.terrain_up_m(np.array([[pose.east_m, pose.north_m]]))[0]))
+        below = float(world.terrain_up_m(np.array([[pose.east_m, pose.north_m]]))[0])
+        return world.camera.focal_px / (pose.up_m - below)
 
     def on_history(det, moving, warp, M, dt_s):
         recent = history(det, moving, warp, M, dt_s)

@@ -47,11 +47,12 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    which their drift is not (yet) significant; a single significant frame, which one crowd's jittering
    parts do show now and then, latches nothing; nor does a drift that does not go on: one whose slope over
    the later half of the frames fitted is not ``late_share`` of the whole fit's, the same way (a distance
-   that stepped and then held: the two parts of a winding crowd's blob 8.3 m apart, 6.9 m a second later
-   and 6.9-7.4 m the next second fitted -1.2 to -0.5 m/s over the window for ten frames in a row, latched
-   and were reported as two crowds in 21 frames, real-alt60-lm6-winding seed 9 at 30.1-36.7 s). Parts latched for their drift alone (not for being
-   ``apart_m`` apart) are one crowd again once, within ``near_m``, the slope of their distance over the
-   last ``rejoin_s`` (both seen over most of it) is under half ``max_rel_speed_m_s``, significant or not:
+   that stepped and then held: the two parts of a winding crowd's blob, 8.3 m apart, 7.0 m 0.8 s later,
+   then 6.9-7.4 m, fitted -1.2 to -0.5 m/s over the window for ten frames in a row, were latched and
+   reported as two crowds in 21 frames, real-alt60-lm6-winding seed 9 at 30.1-36.7 s). Parts latched for
+   their drift alone (not for being ``apart_m`` apart) are one crowd again once, within ``near_m``, the
+   slope of their distance over the last ``rejoin_s`` (both seen over most of it) is under half
+   ``max_rel_speed_m_s``, significant or not:
    a loose crowd's rear part whose distance to the rest grew by 1.5 m in a second and then held at
    7.5-9 m was reported as a crowd of its own for 22 s (tuning seed 108 of real-alt120-lm6), where two
    crowds do not keep their distance for long. So does a crowd that comes out of a blob which took in

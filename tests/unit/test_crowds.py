@@ -199,7 +199,7 @@ def test_a_distance_that_steps_and_holds_is_no_drift(seed):
     # a crowd's blob cut in two parts 8.3 m apart, 7.0 m a second later and so on (real-alt60-lm6-winding
     # seed 9 at 28-30 s): fitted over the window the distance falls 1.2-0.5 m/s for ten frames in a row, but
     # over the later half of the frames it holds. Never two crowds (one in every frame of the last 3 s);
-    # without the later half's check the drift latched and the parts were two crowds for 3.4 s
+    # without the later half's check the drift latched and the parts were two crowds for 3 s or more
     step = _cut_then(lambda t: 8.3 if t < 2.2 else 8.3 - 1.3 * min(t - 2.2, 0.8) / 0.8)
     run(step, 8.0, seed=seed, jitter_m=0.2)
     assert 2 not in run.counts and run.counts[-30:] == [1] * 30 and run.state.apart == frozenset()
