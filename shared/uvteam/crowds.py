@@ -341,12 +341,17 @@ def _significant_speed(fit: tuple[float, float] | None, significance: float) -> 
     return abs(slope) if abs(slope) > significance * stderr else 0.0
 
 
+def _both_seen(a: dict, b: dict, stamp_s: float, window_s: float) -> list[float]:
+    """The stamps in the last ``window_s`` at which both parts (trails as :func:`_trail_since`) were seen."""
+    return [s for s in sorted(set(a) & set(b)) if s > stamp_s - window_s - 1e-6]
+
+
 def _goes_on(a: dict, b: dict, stamp_s: float, slope: float, cfg: GroupingConfig) -> bool:
     """Whether a drift of ``slope`` (m/s, :func:`_distance_slope` over the last ``window_s``) goes on over the
     later half of the frames it was fitted on, at ``late_share`` of its pace or more, the same way (step 3).
     A distance that stepped and then held fits a slope over the window, not over its later half; true when
     the later half has too few frames to tell."""
-    both = [s for s in sorted(set(a) & set(b)) if s > stamp_s - cfg.window_s - 1e-6]
+    both = _both_seen(a, b, stamp_s, cfg.window_s)
     half = 0.5 * (both[-1] - both[0]) if both else 0.0
     if cfg.late_share <= 0.0 or not half > 0.0:
         return True
@@ -358,7 +363,7 @@ def _distance_slope(a: dict, b: dict, stamp_s: float, cfg: GroupingConfig) -> tu
     """The slope (m/s) of a straight line fitted to the distance between two parts (trails as
     :func:`_trail_since`) in the frames of the last ``window_s`` both were seen, and its standard error;
     None when they were not seen apart long enough."""
-    both = [s for s in sorted(set(a) & set(b)) if s > stamp_s - cfg.window_s - 1e-6]
+    both = _both_seen(a, b, stamp_s, cfg.window_s)
     if len(both) < 5 or both[-1] - both[0] < cfg.min_span_s - 1e-6:
         return None
     t = np.array(both) - both[-1]
