@@ -12,6 +12,7 @@ from uvteam.homography import FitQuality
 from uvteam.localizer import CrowdEstimate
 
 T0 = 1_700_000_000.0
+STEPS = GroupingConfig(smooth_accel_m_s2=0.0)   # steps 1-9 on the estimates as grouped; step 10 is tested on its own
 
 
 def estimate(e, n, area=1.0, r95=1.0, half=1.0):
@@ -20,7 +21,7 @@ def estimate(e, n, area=1.0, r95=1.0, half=1.0):
     return CrowdEstimate(0, float(e), float(n), fp, r95, FitQuality.LEAST_SQUARES, 0, area)
 
 
-def run(parts_at, seconds=6.0, rate_hz=10.0, seed=0, jitter_m=0.3, cfg=GroupingConfig()):
+def run(parts_at, seconds=6.0, rate_hz=10.0, seed=0, jitter_m=0.3, cfg=STEPS):
     """Feed report_crowds each frame's parts: parts_at(t) -> [(east, north, area[, footprint half-side])],
     with centre jitter."""
     rng = np.random.default_rng(seed)
@@ -72,7 +73,7 @@ def test_two_crowds_walking_footprints_close_each_hold_their_joint_centre(last_g
     stop_m = 8.0 + last_gap_m
     def parts(t):
         return [(0.0, 1.2 * t, 20.0, 4.0), (max(24.0 - 2.0 * t, stop_m), 1.2 * t, 10.0, 4.0)]
-    base = run(parts, seconds=10.0, cfg=GroupingConfig(mingle_m=0.0))
+    base = run(parts, seconds=10.0, cfg=replace(STEPS, mingle_m=0.0))
     out = run(parts, seconds=10.0)
     assert len(out) == 2 and set(run.counts[-20:]) == {2}
     by_id = {r.crowd_id: r.estimate for r in base}
@@ -111,6 +112,9 @@ def test_groups_and_config_checks():
         GroupingConfig(apart_frames=0)
     with pytest.raises(ValueError):
         GroupingConfig(late_share=1.5)
+    for bad in ({"smooth_accel_m_s2": -0.1}, {"smooth_gate": 0.0}, {"smooth_min_sigma_m": 0.0}):
+        with pytest.raises(ValueError):
+            GroupingConfig(**bad)
 
 
 def test_a_blob_of_one_frame_does_not_pull_a_crowd():
@@ -122,7 +126,7 @@ def test_a_blob_of_one_frame_does_not_pull_a_crowd():
         t = f / 10.0
         de, dn = spots[(f // 7) % 3]
         ests = (estimate(1.4 * t, 0.0, 30.0),) + ((estimate(1.4 * t + de, dn, 30.0),) if f % 7 == 3 else ())
-        state, out = report_crowds(state, ests, T0 + t)
+        state, out = report_crowds(state, ests, T0 + t, STEPS)
         if f >= 2:
             assert len(out) == 1 and out[0].estimate.east_m == pytest.approx(1.4 * t)
 
@@ -136,7 +140,7 @@ def test_a_small_part_beside_a_crowds_edge_joins_it_a_big_one_does_not():
         for f in range(30):
             t = f / 10.0
             ests = (estimate(1.4 * t, 0.0, 30.0, half=7.0), estimate(1.4 * t + 12.5, 0.0, area, half=2.0))
-            state, out = report_crowds(state, ests, T0 + t)
+            state, out = report_crowds(state, ests, T0 + t, STEPS)
         assert len(out) == crowds
 
 
@@ -309,7 +313,7 @@ def test_a_crowd_radius_holds_its_own_measured_scatter(jitter_m):
         t = f / 10
         true = np.array([1.4 * t, 0.5 * t])
         est = true + rng.normal(0, jitter_m, 2) if jitter_m else true
-        state, out = report_crowds(state, (estimate(*est, area=20.0, r95=declared),), T0 + t)
+        state, out = report_crowds(state, (estimate(*est, area=20.0, r95=declared),), T0 + t, STEPS)
         if out and f >= 50:
             c = out[0].estimate
             inside.append(np.hypot(c.east_m - true[0], c.north_m - true[1]) <= c.radius95_m)
@@ -345,7 +349,7 @@ def test_a_crowd_that_holds_steady_gets_a_narrower_steady_offset(jitter_m, offse
         true = np.array([1.4 * t, 0.5 * t])
         est = true + offset_m / np.sqrt(2) + rng.normal(0, jitter_m, 2)
         c = replace(estimate(*est, area=20.0, r95=declared), steady_radius95_m=declared)   # all of it steady
-        state, out = report_crowds(state, (c,), T0 + t)
+        state, out = report_crowds(state, (c,), T0 + t, STEPS)
         if out and f >= 100:
             c = out[0].estimate
             inside.append(np.hypot(c.east_m - true[0], c.north_m - true[1]) <= c.radius95_m)
@@ -394,7 +398,7 @@ def test_a_slow_wander_is_held_by_the_steady_part_and_widens_it_only_beyond(wand
         trail.append((t, *est))
         c = replace(estimate(*est, area=20.0, r95=math.hypot(declared, frame)), steady_radius95_m=declared,
                     frame_radius95_m=frame)
-        state, out = report_crowds(state, (c,), T0 + t)
+        state, out = report_crowds(state, (c,), T0 + t, STEPS)
         if out and f >= 100:
             c = out[0].estimate
             inside.append(np.hypot(c.east_m - true[0], c.north_m - true[1]) <= c.radius95_m)
@@ -410,7 +414,7 @@ def test_a_slow_wander_is_held_by_the_steady_part_and_widens_it_only_beyond(wand
 
 # --- step 6: a crowd gone unseen -------------------------------------------------------------------------
 
-def walk_with_gap(gap=(4.0, 7.0), seconds=10.0, v=(1.4, 0.5), jitter_m=0.3, seed=0, cfg=GroupingConfig(),
+def walk_with_gap(gap=(4.0, 7.0), seconds=10.0, v=(1.4, 0.5), jitter_m=0.3, seed=0, cfg=STEPS,
                   other=None, path=None):
     """One crowd walking at ``v`` from the origin (or along ``path(t)``: (east, north)), unseen during
     ``gap`` (s); per frame its true centre and what was reported. ``other(t)``: a second crowd's (east,
@@ -502,7 +506,7 @@ def test_a_crowd_whose_blob_now_and_then_jumps_to_another_track_keeps_its_id_and
         truth = (1.4 * t, 0.0)
         off = f >= 40 and f % 3 == 0
         e, n = truth[0] + rng.normal(0, 0.2), truth[1] + (4.5 if off else 0.0) + rng.normal(0, 0.2)
-        state, out = report_crowds(state, (estimate(e, n, 20.0),), T0 + t, GroupingConfig())
+        state, out = report_crowds(state, (estimate(e, n, 20.0),), T0 + t, STEPS)
         if f == 39:
             (r,) = out
             cid = r.crowd_id
@@ -559,7 +563,7 @@ def test_no_coasting_when_coast_s_is_zero():
 
 # --- step 7: a crowd partly out of sight -------------------------------------------------------------
 
-def partly_seen(share, offset_m=2.0, cfg=GroupingConfig()):
+def partly_seen(share, offset_m=2.0, cfg=STEPS):
     """A crowd walking east at 1.4 m/s seen whole (20 px) for 4 s, then with ``share`` of its moving
     pixels and its centre ``offset_m`` north of the truth: what is reported then, and the truth."""
     state = GroupingState()
@@ -586,7 +590,7 @@ def test_a_crowd_partly_seen_is_placed_by_the_share_seen(share, north_m):
 
 def test_a_crowd_partly_seen_keeps_its_walk_as_seen():
     # what was placed never enters the walk: two frames partly seen in a row, the second placed alike
-    cfg = GroupingConfig()
+    cfg = STEPS
     state = GroupingState()
     for f in range(42):
         t = f / 10
@@ -678,7 +682,7 @@ def test_a_new_track_where_a_held_crowd_should_be_takes_its_id_and_its_usual_siz
     state, first = GroupingState(), None
     for f in range(50):
         t = f / 10
-        state, out = report_crowds(state, tuple(estimate(e, n, a, half=h) for e, n, a, h in parts(t)), T0 + t)
+        state, out = report_crowds(state, tuple(estimate(e, n, a, half=h) for e, n, a, h in parts(t)), T0 + t, STEPS)
         if f == 39:
             (first,) = out
     (r,) = out
@@ -694,7 +698,7 @@ def seen_ids(parts_at, frames):
     state, ids, tracks = GroupingState(), [], []
     for f in range(frames):
         t = f / 10
-        state, out = report_crowds(state, tuple(estimate(e, n, a, half=h) for e, n, a, h in parts_at(t)), T0 + t)
+        state, out = report_crowds(state, tuple(estimate(e, n, a, half=h) for e, n, a, h in parts_at(t)), T0 + t, STEPS)
         ids += [r.crowd_id for r in out if r.unseen_s == 0.0]
         tracks += [r.track.track_id for r in out if r.unseen_s == 0.0]
     return ids, tracks
@@ -795,13 +799,13 @@ def test_a_blob_that_took_another_crowd_in_has_a_radius_that_holds_its_own_crowd
             return [(3.25, n, 40.0, 10.0)]
         return [(0.0, n, 30.0, 4.0)]
     for seconds in (8.5, 10.0, 11.9):
-        (own,) = run(parts, seconds, jitter_m=0.0, cfg=GroupingConfig(held_share=10.0))   # step 8 off
+        (own,) = run(parts, seconds, jitter_m=0.0, cfg=replace(STEPS, held_share=10.0))   # step 8 off
         assert run.state.inside == {}
         (a,) = run(parts, seconds, jitter_m=0.0)
         assert a.estimate.east_m == pytest.approx(3.25) and a.unseen_s == 0.0
         assert a.estimate.radius95_m == pytest.approx(own.estimate.radius95_m + 3.25, abs=0.01), seconds
         assert list(run.state.inside) == [a.crowd_id]
-    own = run(parts, 12.5, jitter_m=0.0, cfg=GroupingConfig(held_share=10.0))
+    own = run(parts, 12.5, jitter_m=0.0, cfg=replace(STEPS, held_share=10.0))
     out = run(parts, 12.5, jitter_m=0.0)
     assert run.state.inside == {} and len(out) == len(own) >= 1
     assert [r.estimate.radius95_m for r in out] == pytest.approx([r.estimate.radius95_m for r in own])
@@ -897,8 +901,51 @@ def test_a_blob_that_held_another_crowd_keeps_its_reach_while_it_has_both_crowds
             return [(3.25, n, 40.0 if t < 14.0 else area_after_14s, 10.0)]
         return [(0.0, n, 30.0, 4.0)]
     for seconds in (15.0, 19.9, 21.0):
-        (own,) = run(parts, seconds, jitter_m=0.0, cfg=GroupingConfig(held_share=10.0))   # step 8 off
+        (own,) = run(parts, seconds, jitter_m=0.0, cfg=replace(STEPS, held_share=10.0))   # step 8 off
         (a,) = run(parts, seconds, jitter_m=0.0)
         assert run.state.inside == {} and a.unseen_s == 0.0
         reach = 3.25 if area_after_14s >= 35.0 and seconds < 20.0 else 0.0
         assert a.estimate.radius95_m == pytest.approx(own.estimate.radius95_m + reach, abs=0.01), seconds
+
+
+def walk_seen_through(noise_m, cfg, seconds=20.0, seed=0, jump_at_s=None, jump_m=0.0):
+    """A crowd walking at (1.2, 0.4) m/s, each frame's estimate off by white noise of ``noise_m`` per axis (the
+    transform jittered from fix to fix), declared as the estimate's frame noise; from ``jump_at_s`` on, placed
+    ``jump_m`` further east. Per frame after the first 2 s: (its true place, the estimate, the report)."""
+    rng = np.random.default_rng(seed)
+    state, rows = GroupingState(), []
+    r95 = 2.4477 * noise_m
+    for f in range(int(seconds * 10)):
+        t = f / 10.0
+        true = np.array([1.2 * t + (jump_m if jump_at_s is not None and t >= jump_at_s else 0.0), 0.4 * t])
+        seen = true + rng.normal(0.0, noise_m, 2)
+        est = replace(estimate(*seen, area=20.0, r95=r95), frame_radius95_m=r95)
+        state, out = report_crowds(state, (est,), T0 + t, cfg)
+        if t >= 2.0 and out:
+            rows.append((true, seen, out[0]))
+    return rows
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_a_crowd_whose_estimates_jitter_is_reported_nearer_where_it_walks(seed):
+    # the transform jittered by consumer GNSS: estimates 1 m off per axis from frame to frame. Through step 10's
+    # filter the crowd is reported much nearer where it walks, its radius narrower and still holding it; with
+    # the filter off it is reported where estimated
+    rows = walk_seen_through(1.0, GroupingConfig(), seed=seed)
+    err = np.array([np.hypot(*(r.estimate.east_m - t[0], r.estimate.north_m - t[1])) for t, _, r in rows])
+    raw = np.array([np.hypot(*(s - t)) for t, s, _ in rows])
+    assert np.sqrt(np.mean(err ** 2)) < 0.5 * np.sqrt(np.mean(raw ** 2))
+    radius = np.array([r.estimate.radius95_m for _, _, r in rows])
+    assert np.median(radius) < 0.7 * 2.4477 and np.mean(err <= radius) >= 0.9
+    off = walk_seen_through(1.0, STEPS, seed=seed)
+    assert all(r.estimate.east_m == s[0] and r.estimate.north_m == s[1] for _, s, r in off if r.unseen_s == 0.0)
+
+
+def test_a_crowd_placed_afresh_is_reported_where_it_is_at_once():
+    # estimates 0.1 m off, then 3 m further east from 8 s on (the same track): far past what the filter expects,
+    # so it starts afresh at the new place, not drifting there over seconds
+    rows = walk_seen_through(0.1, GroupingConfig(), jump_at_s=8.0, jump_m=3.0)
+    after = [(s, r) for t, s, r in rows if t[0] >= 1.2 * 8.0 + 3.0 - 1e-9]
+    s, r = after[0]
+    assert (r.estimate.east_m, r.estimate.north_m) == pytest.approx(tuple(s), abs=1e-9)
+    assert all(np.hypot(r.estimate.east_m - s[0], r.estimate.north_m - s[1]) < 0.5 for s, r in after)
