@@ -146,7 +146,8 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    is reported as step 6 has it and starts it afresh when seen again). Its 95 % radius holds what is left of
    that noise after the filter in place of the noise itself. Landmarks with consumer GNSS jitter the transform
    from fix to fix, so a crowd's estimates scatter by a metre about where it walks: field-alt100-lm6's tuning
-   seeds 1-3 (open loop, `docs/grouping_replay.py`) 1.199 -> 0.84 m of mean error with the filter.
+   seeds 1-3 (open loop, `docs/grouping_replay.py`) 1.199 -> 0.868 m of mean error with the filter, the other
+   worlds' within 0.02 m (docs/results-worlds.md, session 41).
 """
 
 from __future__ import annotations
@@ -196,6 +197,7 @@ class GroupingConfig:
                                     # by this per axis (1 sigma; 0: reported as estimated) (step 10)
     smooth_gate: float = 4.0      # ... an estimate this many standard deviations from the filter's starts it afresh
     smooth_min_sigma_m: float = 0.05  # ... and its estimates' noise from frame to frame is taken as at least this
+    smooth_area_ratio: float = 1.3  # ... and so does one whose moving pixels changed by more than this factor
 
     def __post_init__(self) -> None:
         for name in ("near_m", "window_s", "min_span_s", "max_rel_speed_m_s"):
@@ -215,8 +217,10 @@ class GroupingConfig:
             raise ValueError(f"scatter_fast_s must be > 0, got {self.scatter_fast_s}")
         if not (self.steady_per_scatter >= 0.0 and self.steady_min_m >= 0.0):
             raise ValueError("steady_per_scatter and steady_min_m must be >= 0")
-        if not (self.smooth_accel_m_s2 >= 0.0 and self.smooth_gate > 0.0 and self.smooth_min_sigma_m > 0.0):
-            raise ValueError("smooth_accel_m_s2 must be >= 0, smooth_gate and smooth_min_sigma_m > 0")
+        if not (self.smooth_accel_m_s2 >= 0.0 and self.smooth_gate > 0.0 and self.smooth_min_sigma_m > 0.0
+                and self.smooth_area_ratio >= 1.0):
+            raise ValueError("smooth_accel_m_s2 must be >= 0, smooth_gate and smooth_min_sigma_m > 0, "
+                             "smooth_area_ratio >= 1")
         if not 0.0 <= self.late_share <= 1.0:
             raise ValueError(f"late_share must be in [0, 1], got {self.late_share}")
         if not (self.apart_m >= self.near_m and self.apart_frames >= 1 and self.rejoin_s >= 0.0):
@@ -835,6 +839,7 @@ class Smoothed:
     stamp_s: float
     x: np.ndarray                      # (4,)
     P: np.ndarray                      # (4, 4)
+    area_px: float                     # the moving pixels of the estimate it last took
 
 
 SMOOTH_GAP_S = 0.5          # a crowd unseen (or unreported) this long starts its filter afresh
@@ -871,10 +876,14 @@ def _filter_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_
                  ) -> Smoothed:
     """One Kalman step of a crowd's constant-velocity filter (white acceleration of ``smooth_accel_m_s2`` per
     axis) with its estimate at ``sigma_m`` per axis; afresh at the estimate, with its track's velocity, when
-    there is none, after a gap, or when the estimate lies ``smooth_gate`` standard deviations off."""
+    there is none, after a gap, when the estimate's moving pixels changed by more than ``smooth_area_ratio``
+    (walkers that joined or left its blob move its centre: field-alt100-lm6 seed 9 at 47.2-47.8 s, the second
+    crowd leaving, followed 1-2 m behind), or when the estimate lies ``smooth_gate`` standard deviations off."""
     z = np.array([r.estimate.east_m, r.estimate.north_m])
     R = sigma_m ** 2 * np.eye(2)
-    if prev is not None and 0.0 < stamp_s - prev.stamp_s <= SMOOTH_GAP_S:
+    area = r.estimate.area_px
+    if (prev is not None and 0.0 < stamp_s - prev.stamp_s <= SMOOTH_GAP_S
+            and prev.area_px <= area * cfg.smooth_area_ratio and area <= prev.area_px * cfg.smooth_area_ratio):
         dt = stamp_s - prev.stamp_s
         F = np.eye(4)
         F[0, 2] = F[1, 3] = dt
@@ -884,10 +893,11 @@ def _filter_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_
         y = z - x[:2]
         if float(y @ np.linalg.solve(S, y)) <= cfg.smooth_gate ** 2:
             K = np.linalg.solve(S, P[:2, :]).T     # P H^T S^-1, H picking the position
-            return Smoothed(stamp_s, x + K @ y, P - K @ P[:2, :])
+            return Smoothed(stamp_s, x + K @ y, P - K @ P[:2, :], area)
     v = (r.track.v_east_m_s, r.track.v_north_m_s)
     return Smoothed(stamp_s, np.array([z[0], z[1], v[0], v[1]]),
-                    np.diag([sigma_m ** 2, sigma_m ** 2, SMOOTH_START_SIGMA_V_M_S ** 2, SMOOTH_START_SIGMA_V_M_S ** 2]))
+                    np.diag([sigma_m ** 2, sigma_m ** 2, SMOOTH_START_SIGMA_V_M_S ** 2, SMOOTH_START_SIGMA_V_M_S ** 2]),
+                    area)
 
 
 def _came_out(state: GroupingState, estimates: tuple[CrowdEstimate, ...], en: np.ndarray, trk: list[CrowdTrack],

@@ -112,7 +112,8 @@ def test_groups_and_config_checks():
         GroupingConfig(apart_frames=0)
     with pytest.raises(ValueError):
         GroupingConfig(late_share=1.5)
-    for bad in ({"smooth_accel_m_s2": -0.1}, {"smooth_gate": 0.0}, {"smooth_min_sigma_m": 0.0}):
+    for bad in ({"smooth_accel_m_s2": -0.1}, {"smooth_gate": 0.0}, {"smooth_min_sigma_m": 0.0},
+                {"smooth_area_ratio": 0.9}):
         with pytest.raises(ValueError):
             GroupingConfig(**bad)
 
@@ -908,10 +909,11 @@ def test_a_blob_that_held_another_crowd_keeps_its_reach_while_it_has_both_crowds
         assert a.estimate.radius95_m == pytest.approx(own.estimate.radius95_m + reach, abs=0.01), seconds
 
 
-def walk_seen_through(noise_m, cfg, seconds=20.0, seed=0, jump_at_s=None, jump_m=0.0):
+def walk_seen_through(noise_m, cfg, seconds=20.0, seed=0, jump_at_s=None, jump_m=0.0, area_after=20.0):
     """A crowd walking at (1.2, 0.4) m/s, each frame's estimate off by white noise of ``noise_m`` per axis (the
     transform jittered from fix to fix), declared as the estimate's frame noise; from ``jump_at_s`` on, placed
-    ``jump_m`` further east. Per frame after the first 2 s: (its true place, the estimate, the report)."""
+    ``jump_m`` further east with ``area_after`` moving pixels (20 before). Per frame after the first 2 s: (its
+    true place, the estimate, the report)."""
     rng = np.random.default_rng(seed)
     state, rows = GroupingState(), []
     r95 = 2.4477 * noise_m
@@ -919,7 +921,8 @@ def walk_seen_through(noise_m, cfg, seconds=20.0, seed=0, jump_at_s=None, jump_m
         t = f / 10.0
         true = np.array([1.2 * t + (jump_m if jump_at_s is not None and t >= jump_at_s else 0.0), 0.4 * t])
         seen = true + rng.normal(0.0, noise_m, 2)
-        est = replace(estimate(*seen, area=20.0, r95=r95), frame_radius95_m=r95)
+        area = area_after if jump_at_s is not None and t >= jump_at_s else 20.0
+        est = replace(estimate(*seen, area=area, r95=r95), frame_radius95_m=r95)
         state, out = report_crowds(state, (est,), T0 + t, cfg)
         if t >= 2.0 and out:
             rows.append((true, seen, out[0]))
@@ -949,3 +952,16 @@ def test_a_crowd_placed_afresh_is_reported_where_it_is_at_once():
     s, r = after[0]
     assert (r.estimate.east_m, r.estimate.north_m) == pytest.approx(tuple(s), abs=1e-9)
     assert all(np.hypot(r.estimate.east_m - s[0], r.estimate.north_m - s[1]) < 0.5 for s, r in after)
+
+
+def test_a_crowd_whose_blob_took_walkers_in_is_reported_where_they_all_are_at_once():
+    # estimates 0.5 m off; from 8 s on half as many moving pixels again and 1.5 m further east (walkers joined
+    # the blob, moving its centre): mostly within what the filter would take as noise, but its pixels say the
+    # blob changed, so it starts afresh there; without that rule it drifts there over a second
+    def first_after(cfg, seed):
+        rows = walk_seen_through(0.5, cfg, seed=seed, jump_at_s=8.0, jump_m=1.5, area_after=30.0)
+        s, r = next((s, r) for t, s, r in rows if t[0] >= 1.2 * 8.0 + 1.5 - 1e-9)
+        return np.hypot(r.estimate.east_m - s[0], r.estimate.north_m - s[1])
+    seeds = range(6)
+    assert all(first_after(GroupingConfig(), seed) < 1e-9 for seed in seeds)
+    assert sum(first_after(GroupingConfig(smooth_area_ratio=1e9), seed) > 0.3 for seed in seeds) >= 4
