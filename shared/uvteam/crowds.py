@@ -142,12 +142,13 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    Kalman filter per crowd id): its estimates' noise from frame to frame is what its track's scatter within
    ``scatter_fast_s`` measures (the declared frame noise until there is one), its pace and heading change by
    ``smooth_accel_m_s2`` per axis (1 sigma), and an estimate more than ``smooth_gate`` standard deviations
-   from where the filter has it, or one after a frame gap, starts it afresh (a crowd held by its walk, step 6,
+   from where the filter has it, one whose moving pixels changed by more than ``smooth_area_ratio`` (walkers
+   joined or left its blob), or one after a frame gap, starts it afresh (a crowd held by its walk, step 6,
    is reported as step 6 has it and starts it afresh when seen again). Its 95 % radius holds what is left of
-   that noise after the filter in place of the noise itself. Landmarks with consumer GNSS jitter the transform
-   from fix to fix, so a crowd's estimates scatter by a metre about where it walks: field-alt100-lm6's tuning
-   seeds 1-3 (open loop, `docs/grouping_replay.py`) 1.199 -> 0.868 m of mean error with the filter, the other
-   worlds' within 0.02 m (docs/results-worlds.md, session 41).
+   the declared frame noise after the filter in place of that noise. Landmarks with consumer GNSS jitter the
+   transform from fix to fix, so a crowd's estimates scatter by a metre about where it walks:
+   field-alt100-lm6's tuning seeds 1-3 (open loop, `docs/grouping_replay.py`) 1.199 -> 0.879 m of mean error
+   with the filter, the other worlds' within 0.01 m (docs/results-worlds.md, session 41).
 """
 
 from __future__ import annotations
