@@ -849,8 +849,8 @@ SMOOTH_START_SIGMA_V_M_S = 1.0   # a fresh filter's velocity (its track's) known
 
 def _smoothed(prev: Mapping[int, Smoothed], crowds: list[ReportedCrowd], stamp_s: float, cfg: GroupingConfig
               ) -> tuple[list[ReportedCrowd], dict[int, Smoothed]]:
-    """Step 10: each crowd seen placed where its filter has it, its radius holding the noise the filter leaves
-    in place of its estimates' noise from frame to frame; the filters, per crowd id."""
+    """Step 10: each crowd seen placed where its filter has it, its radius holding what the filter leaves of the
+    declared frame noise in place of that noise; the filters, per crowd id."""
     if not cfg.smooth_accel_m_s2 > 0.0:
         return crowds, {}
     out, kept = [], {}
