@@ -325,12 +325,10 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
             continue
         fit = _distance_slope(trails[i], trails[j], stamp_s, cfg)
         rel = _significant_speed(fit, cfg.significance)
-        if rel > cfg.max_rel_speed_m_s and not _goes_on(trails[i], trails[j], stamp_s, fit[0], cfg):
-            if pair in joined:             # a step in their distance, not a drift: no streak, one crowd as before
-                parent[root(j)] = root(i)
-        elif rel > cfg.max_rel_speed_m_s:
-            new_streak[pair] = streak.get(pair, 0) + 1
-            if new_streak[pair] >= cfg.apart_frames:
+        if rel > cfg.max_rel_speed_m_s:
+            if _goes_on(trails[i], trails[j], stamp_s, fit[0], cfg):   # a step that stopped counts toward no streak
+                new_streak[pair] = streak.get(pair, 0) + 1
+            if new_streak.get(pair, 0) >= cfg.apart_frames:
                 apart.add(pair)
                 drifted.add(pair)
                 del new_streak[pair]
@@ -479,14 +477,18 @@ def steady_sigma_m(scatter_m: float, declared_sigma_m: float, cfg: GroupingConfi
     return min(max(cfg.steady_per_scatter * scatter_m, cfg.steady_min_m), declared_sigma_m)
 
 
-def _with_scatter(c: CrowdEstimate, track: CrowdTrack, cfg: GroupingConfig) -> CrowdEstimate:
+def _scatter_trail(track: CrowdTrack, cfg: GroupingConfig) -> tuple[tuple[float, float, float], ...]:
+    """A track's estimates over the last ``scatter_s``, what its scatter is measured on (steps 1 and 10)."""
+    return tuple(p for p in track.trail if p[0] >= track.stamp_s - cfg.scatter_s)
+
+
+def _with_scatter(c: CrowdEstimate, track: CrowdTrack, fast: float | None, cfg: GroupingConfig) -> CrowdEstimate:
     """The estimate with its 95 % radius fitted to its own track's measured scatter (step 1): the declared
     steady part (``steady_radius95_m``) narrowed to what the scatter says (:func:`steady_sigma_m`), then
     widened by what the scatter shows beyond what the radius holds: its fast part (:func:`fast_scatter_m`)
     beyond the frame-to-frame noise (``frame_radius95_m``), the rest beyond the steady part. With no steady
-    part declared, all of it beyond the frame noise."""
-    trail = tuple(p for p in track.trail if p[0] >= track.stamp_s - cfg.scatter_s)
-    fit = _line_fit(trail, cfg.scatter_min_points)
+    part declared, all of it beyond the frame noise. ``fast``: :func:`fast_scatter_m` of its trail."""
+    fit = _line_fit(_scatter_trail(track, cfg), cfg.scatter_min_points)
     if fit is None:
         return c
     s = fit[3]
@@ -495,7 +497,6 @@ def _with_scatter(c: CrowdEstimate, track: CrowdTrack, cfg: GroupingConfig) -> C
     if c.steady_radius95_m > 0:
         own = R95_PER_SIGMA * steady_sigma_m(s, c.steady_radius95_m / R95_PER_SIGMA, cfg)
         r2 = max(r2 - c.steady_radius95_m ** 2 + own ** 2, frame2)
-        fast = fast_scatter_m(trail, cfg.scatter_fast_s)
         fast = s if fast is None else min(fast, s)
         r2 += max((R95_PER_SIGMA * fast) ** 2 - frame2, 0.0) + \
             max(R95_PER_SIGMA ** 2 * (s * s - fast * fast) - own ** 2, 0.0)
@@ -757,7 +758,8 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     boxes_all = _boxes_en(estimates)
     live = {t.track_id: t for t in tracker.tracks}
     holds = _merged(state, live, trk, boxes_all, stamp_s)
-    estimates = tuple(_with_scatter(c, t, cfg) for c, t in zip(estimates, trk))
+    fast_of = {t.track_id: fast_scatter_m(_scatter_trail(t, cfg), cfg.scatter_fast_s) for t in trk}
+    estimates = tuple(_with_scatter(c, t, fast_of[t.track_id], cfg) for c, t in zip(estimates, trk))
     confirmed = [k for k in range(len(trk)) if trk[k].hits >= cfg.confirm_hits]  # a one-frame blob joins nothing
     apart, drifted = set(state.apart), set(state.drifted)
     released = set()    # tracks whose blob let a crowd it took in out this frame
@@ -807,7 +809,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     out.sort(key=lambda c: (-c.track.hits, c.crowd_id))
     apart = frozenset(p for p in apart if p[0] in live and p[1] in live)   # forgotten with either track
     holds = {x: v for x, v in holds.items() if v and x in live}
-    out, smoothed = _smoothed(state.smoothed, out, stamp_s, cfg)
+    out, smoothed = _smoothed(state.smoothed, out, fast_of, stamp_s, cfg)
     return GroupingState(tracker, apart, streak, holds, last_seen, alias, drifted & apart, joined, crowd_of,
                          inside, still_two, smoothed), out
 
@@ -847,10 +849,11 @@ SMOOTH_GAP_S = 0.5          # a crowd unseen (or unreported) this long starts it
 SMOOTH_START_SIGMA_V_M_S = 1.0   # a fresh filter's velocity (its track's) known to this per axis (1 sigma)
 
 
-def _smoothed(prev: Mapping[int, Smoothed], crowds: list[ReportedCrowd], stamp_s: float, cfg: GroupingConfig
-              ) -> tuple[list[ReportedCrowd], dict[int, Smoothed]]:
+def _smoothed(prev: Mapping[int, Smoothed], crowds: list[ReportedCrowd], fast_of: Mapping[int, float | None],
+              stamp_s: float, cfg: GroupingConfig) -> tuple[list[ReportedCrowd], dict[int, Smoothed]]:
     """Step 10: each crowd seen placed where its filter has it, its radius holding what the filter leaves of the
-    declared frame noise in place of that noise; the filters, per crowd id."""
+    declared frame noise in place of that noise; the filters, per crowd id. ``fast_of``: per track seen this
+    frame, :func:`fast_scatter_m` of its trail (step 1's)."""
     if not cfg.smooth_accel_m_s2 > 0.0:
         return crowds, {}
     out, kept = [], {}
@@ -859,8 +862,7 @@ def _smoothed(prev: Mapping[int, Smoothed], crowds: list[ReportedCrowd], stamp_s
             out.append(r)
             continue
         c = r.estimate
-        trail = tuple(p for p in r.track.trail if p[0] >= stamp_s - cfg.scatter_s - 1e-6)
-        fast = fast_scatter_m(trail, cfg.scatter_fast_s)
+        fast = fast_of.get(r.track.track_id)
         sigma_m = max(c.frame_radius95_m / R95_PER_SIGMA if fast is None else fast, cfg.smooth_min_sigma_m)
         f = _filter_step(prev.get(r.crowd_id), r, sigma_m, stamp_s, cfg)
         kept[r.crowd_id] = f
