@@ -91,7 +91,8 @@ class Simulation:
 
     def _ugv_state(self, i: int, capture_s: float) -> VehicleState:
         sc, w = self.sc, self.world
-        h_acc = max(math.sqrt(sc.gnss.sigma_m ** 2 + sc.gnss.bias_walk_m_per_sqrt_s ** 2 * min(capture_s, 60.0)), MIN_H_ACC_M)
+        h_acc = max(math.sqrt(sc.gnss.sigma_m ** 2 + sc.gnss.bias_sigma_m ** 2
+                              + sc.gnss.bias_walk_m_per_sqrt_s ** 2 * min(capture_s, 60.0)), MIN_H_ACC_M)
         with self.lock:
             en, v = w.ugv_fix_en(i), w.ugv_fix_v(i)
             hdg = float(w.ugv_heading_deg[i])

@@ -21,8 +21,10 @@ Modelling choices (each a scenario field or stated here):
   plus a slow hover wander (``hover_wobble_m``, 3 s correlation); gimbal jitter is fresh every frame;
 - terrain: height = relief/2 * sin(2 pi e / wavelength) * cos(2 pi n / wavelength) above the plane;
 - UGV roof labels and the visible centre of a person both sit 1.0 m above the ground;
-- GNSS: white noise ``sigma_m`` plus a random-walk bias, at ``fix_rate_hz``, ``latency_s`` late,
-  none during ``dropouts``;
+- GNSS: white noise ``sigma_m`` plus a random-walk bias, plus a bias that drifts as a receiver's error
+  does (first-order Gauss-Markov: steady 1-sigma ``bias_sigma_m`` per axis, drawn at the start, and
+  correlation time ``bias_time_s``; from its own generator (seed, 0x6B5), so the world's stream is the
+  same with and without it), at ``fix_rate_hz``, ``latency_s`` late, none during ``dropouts``;
 - the camera's roll/pitch is the scenario's fixed gimbal tilt (``uav.tilt_roll_deg``/``tilt_pitch_deg``,
   default 0), plus the gimbal's residual tilt for the run (``uav.attitude_sigma_deg`` per axis, default 0,
   from its own generator (seed, 0xA771) so the world's stream is the same with and without it; the
@@ -188,6 +190,9 @@ class SimWorld:
         self.missions: list[list[tuple[float, float, float]]] = [[] for _ in range(n)]  # (e, n, speed)
         self.wp_index = np.zeros(n, int)
         self.gnss_bias = np.zeros((n, 2))
+        self.gm_rng = np.random.default_rng([seed, 0x6B5])
+        self.gnss_drift = self.gm_rng.normal(0.0, sc.gnss.bias_sigma_m, (n, 2)) if sc.gnss.bias_sigma_m > 0 \
+            else np.zeros((n, 2))
         # UAV
         self.uav_p = self.crowd_centroids()[0].copy()
         self.wobble = np.zeros(2)
@@ -277,6 +282,10 @@ class SimWorld:
             self.ugv_speed[i] = moved / dt
             self.ugv_v[i] = (self.ugv_p[i] - p_before) / dt
         self.gnss_bias += rng.normal(0, sc.gnss.bias_walk_m_per_sqrt_s * np.sqrt(dt), self.gnss_bias.shape)
+        if sc.gnss.bias_sigma_m > 0:
+            a = np.exp(-dt / sc.gnss.bias_time_s)
+            self.gnss_drift = a * self.gnss_drift + np.sqrt(1 - a * a) * self.gm_rng.normal(
+                0.0, sc.gnss.bias_sigma_m, self.gnss_drift.shape)
         target = cents.mean(0) if sc.uav.follow != "fixed" else self.uav_p
         if sc.uav.follow == "crowd":
             self.uav_p = target.copy()
@@ -287,7 +296,7 @@ class SimWorld:
 
     # --- sensors ----------------------------------------------------------------------------------
     def ugv_fix_en(self, i: int) -> np.ndarray:
-        return self.ugv_p[i] + self.gnss_bias[i] + self.rng.normal(0, self.sc.gnss.sigma_m, 2)
+        return self.ugv_p[i] + self.gnss_bias[i] + self.gnss_drift[i] + self.rng.normal(0, self.sc.gnss.sigma_m, 2)
 
     def ugv_fix_v(self, i: int) -> np.ndarray:
         """Doppler velocity as a receiver reports it: 5 cm/s noise."""

@@ -100,6 +100,8 @@ class Gnss:
     fix_rate_hz: float
     latency_s: float
     dropouts: tuple[tuple[int, float, float], ...]
+    bias_sigma_m: float = 0.0       # a bias per UGV and axis that drifts (Gauss-Markov): this 1-sigma, steady
+    bias_time_s: float = 120.0      # ... and this correlation time (a receiver's error: slow, not white)
 
 
 @dataclass(frozen=True)
@@ -283,6 +285,9 @@ def _validate(sc: Scenario, src: str) -> None:
     need(sc.run.frame_rate_hz > 0 and sc.run.duration_s > 0 and len(sc.run.seeds) > 0, "run", "positive rate, duration, seeds")
     need(len(sc.ugvs.initial_distance_m) == 2, "ugvs.initial_distance_m", "[lo, hi]")
     need(sc.gnss.fix_rate_hz > 0, "gnss.fix_rate_hz", "> 0")
+    need(sc.gnss.sigma_m >= 0 and sc.gnss.bias_walk_m_per_sqrt_s >= 0 and sc.gnss.bias_sigma_m >= 0,
+         "gnss", "sigma_m, bias_walk_m_per_sqrt_s and bias_sigma_m >= 0")
+    need(sc.gnss.bias_time_s > 0, "gnss.bias_time_s", "> 0")
     need(len(sc.crowds) >= 1, "crowds", "at least one crowd")
     for i, c in enumerate(sc.crowds):
         need(len(c.speed_range_m_s) in (0, 2), f"crowds[{i}].speed_range_m_s", "[] or [lo, hi]")

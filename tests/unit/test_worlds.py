@@ -100,6 +100,8 @@ def test_own_scenarios_load_with_ten_seeds(name):
 def test_gnss_tilt_noise_and_pose_variants_differ_from_their_base_only_there():
     for name, base, changed in (("real-alt60-lm6-gnss1", "real-alt60-lm6", ("gnss",)),
                                 ("real-alt120-lm6-gnss1", "real-alt120-lm6", ("gnss",)),
+                                ("real-alt60-lm6-gnss1drift", "real-alt60-lm6", ("gnss",)),
+                                ("real-alt120-lm6-gnss1drift", "real-alt120-lm6", ("gnss",)),
                                 ("real-alt120-lm6-tilt9", "real-alt120-lm6", ("uav",)),
                                 ("real-alt60-lm6-noise20", "real-alt60-lm6", ("camera",)),
                                 ("real-alt60-lm6-winding", "real-alt60-lm6", ("crowds",)),
@@ -121,6 +123,9 @@ def test_gnss_tilt_noise_and_pose_variants_differ_from_their_base_only_there():
         assert replace(v.uav, position_sigma_m=0.0, heading_sigma_deg=0.0, alt_sigma_m=0.0, attitude_sigma_deg=0.0) == b.uav
     assert load_own_scenario("real-alt60-lm6").gnss.sigma_m == 0.0
     assert load_own_scenario("real-alt60-lm6-gnss1").gnss.sigma_m == 1.0
+    for alt in (60, 120):   # the same 1 m as the -gnss1 worlds, nearly all of it a bias that drifts slowly
+        g = load_own_scenario(f"real-alt{alt}-lm6-gnss1drift").gnss
+        assert (g.sigma_m, g.bias_sigma_m, g.bias_time_s, g.bias_walk_m_per_sqrt_s) == (0.1, 1.0, 120.0, 0.0)
     assert load_own_scenario("real-alt60-lm6").camera.noise_sigma == 2.0
     assert load_own_scenario("real-alt60-lm6-noise20").camera.noise_sigma == 20.0
     for alt in (60, 120):
@@ -191,6 +196,8 @@ IMAGERY = [{"path": "x.jpg", "gsd_m": 0.02}]
     ({"crowds[0].turn_sigma_deg_s": -1.0}, "crowds[0].turn_sigma_deg_s"),  # negative
     ({"crowds[0].turn_sigma_deg_s": 45.0}, "crowds[0].turn_sigma_deg_s"),  # over 30 deg/s
     ({"crowds[0].turn_sigma_deg_s": float("nan")}, "crowds[0].turn_sigma_deg_s"),
+    ({"gnss.bias_sigma_m": -1.0}, "gnss"),                                # negative
+    ({"gnss.bias_time_s": 0.0}, "gnss.bias_time_s"),                      # no correlation time
     ({"sky": {"clouds": 3}}, "sky"),                                     # unknown section
 ])
 def test_bad_optional_fields_name_their_key(base_raw, changes, key):
@@ -556,6 +563,32 @@ def test_a_winding_crowd_turns_at_its_pace_and_leaves_the_world_as_it_was():
     start = np.array([sc.crowds[0].start_east_m, sc.crowds[0].start_north_m])
     assert np.array_equal(w0.crowd_v[0], v0)                            # 0: straight, as before the field existed
     assert np.allclose(w0.crowd_c[0], start + v0 * 2.0)
+
+
+def test_a_drifting_gnss_bias_is_steady_slow_and_leaves_the_world_as_it_was():
+    sc = load_own_scenario("real-alt60-lm6-gnss1drift")
+    white = replace(sc, gnss=replace(sc.gnss, bias_sigma_m=0.0))
+    start, moved, fresh = [], [], []
+    for seed in range(1, 41):
+        w = SimWorld(sc, seed)
+        b0 = w.gnss_drift.copy()
+        for _ in range(100):                 # 10 s at 10 Hz
+            w.step(0.1)
+        start.append(b0)
+        moved.append(w.gnss_drift - b0)
+        fresh.append(w.ugv_fix_en(0) - w.ugv_fix_en(0))     # two fixes of one instant: the white part alone
+    start, moved, fresh = np.concatenate(start), np.concatenate(moved), np.array(fresh)
+    assert 0.85 < np.std(start) < 1.15                  # 1 m per axis from the first fix: no zero start
+    # Gauss-Markov over 10 s of a 120 s correlation: sd sqrt(2 (1 - exp(-10/120))) = 0.40 of the 1 m
+    assert 0.30 < np.std(moved) < 0.50
+    assert 0.10 < np.std(fresh) < 0.18                  # sqrt(2) x 0.1 m
+    w, w0 = SimWorld(sc, 3), SimWorld(white, 3)
+    for _ in range(20):
+        w.step(0.1)
+        w0.step(0.1)
+    assert np.array_equal(w.ugv_p, w0.ugv_p) and np.array_equal(w.crowd_c, w0.crowd_c)  # its own stream
+    assert not w0.gnss_drift.any() and w.gnss_drift.any()
+    assert Simulation(sc, 3, 0.0)._ugv_state(0, 1.0).h_acc_m == pytest.approx(np.hypot(0.1, 1.0))
 
 
 def test_blur_sigma_blurs_the_frame():
