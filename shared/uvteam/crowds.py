@@ -140,7 +140,9 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    reported as two held the joint centre in 15 of 211 frames before, 197 after (seeds 1-3);
 10. each crowd seen is reported where a constant-velocity filter of its estimates has it (:class:`Smoothed`, a
    Kalman filter per crowd id): its estimates' noise from frame to frame is what its track's scatter within
-   ``scatter_fast_s`` measures (the declared frame noise until there is one), its pace and heading change by
+   ``scatter_fast_s`` measures (until there is such a measure, its track too young for it or for a velocity,
+   the crowd is reported as estimated: paper-fig7-alt50 seed 4's maximum, 1.29 -> 1.37 m at 0.4 s with a
+   filter started on a three-frame track), its pace and heading change by
    ``smooth_accel_m_s2`` per axis (1 sigma), and an estimate more than ``smooth_gate`` standard deviations
    from where the filter has it, one whose moving pixels changed by more than ``smooth_area_ratio`` (walkers
    joined or left its blob), or one after a frame gap, starts it afresh (a crowd held by its walk, step 6,
@@ -853,17 +855,18 @@ def _smoothed(prev: Mapping[int, Smoothed], crowds: list[ReportedCrowd], fast_of
               stamp_s: float, cfg: GroupingConfig) -> tuple[list[ReportedCrowd], dict[int, Smoothed]]:
     """Step 10: each crowd seen placed where its filter has it, its radius holding what the filter leaves of the
     declared frame noise in place of that noise; the filters, per crowd id. ``fast_of``: per track seen this
-    frame, :func:`fast_scatter_m` of its trail (step 1's)."""
+    frame, :func:`fast_scatter_m` of its trail (step 1's); a crowd whose track has none yet is reported as
+    estimated."""
     if not cfg.smooth_accel_m_s2 > 0.0:
         return crowds, {}
     out, kept = [], {}
     for r in crowds:
-        if r.unseen_s > 0.0:      # held by its walk (step 6): a prediction already
-            out.append(r)
+        fast = fast_of.get(r.track.track_id)
+        if r.unseen_s > 0.0 or fast is None:    # held by its walk (step 6): a prediction already; or its track
+            out.append(r)                       # too young to have measured its noise, nor its velocity
             continue
         c = r.estimate
-        fast = fast_of.get(r.track.track_id)
-        sigma_m = max(c.frame_radius95_m / R95_PER_SIGMA if fast is None else fast, cfg.smooth_min_sigma_m)
+        sigma_m = max(fast, cfg.smooth_min_sigma_m)
         f = _filter_step(prev.get(r.crowd_id), r, sigma_m, stamp_s, cfg)
         kept[r.crowd_id] = f
         left95 = R95_PER_SIGMA * float(np.sqrt((f.P[0, 0] + f.P[1, 1]) / 2.0))

@@ -965,3 +965,23 @@ def test_a_crowd_whose_blob_took_walkers_in_is_reported_where_they_all_are_at_on
     seeds = range(6)
     assert all(first_after(GroupingConfig(), seed) < 1e-9 for seed in seeds)
     assert sum(first_after(GroupingConfig(smooth_area_ratio=1e9), seed) > 0.3 for seed in seeds) >= 4
+
+
+def test_a_crowd_first_seen_is_reported_as_estimated_until_its_track_has_measured_its_noise():
+    # a track of a few frames has neither a measured noise nor a velocity worth starting a filter on
+    # (paper-fig7-alt50 seed 4 at 0.4 s: a filter started at 0.3 s on the young track's 0.9 m/s, the crowd
+    # walking 2-3 m/s, put it 1.37 m off where the estimate was 1.29): the filter starts with the track's fourth
+    # estimate (its first measured noise) and acts from the fifth
+    rng = np.random.default_rng(5)
+    state, pairs = GroupingState(), []
+    for f in range(12):
+        t = f / 10.0
+        seen = np.array([2.5 * t, 0.0]) + rng.normal(0.0, 0.5, 2)
+        est = replace(estimate(*seen, area=20.0, r95=1.2), frame_radius95_m=1.2)
+        state, out = report_crowds(state, (est,), T0 + t, GroupingConfig())
+        if out:
+            pairs.append((len(out[0].track.trail), seen, out[0].estimate))
+    young = [(s, e) for n, s, e in pairs if n <= 4]
+    assert len(young) >= 2 and all((e.east_m, e.north_m) == (s[0], s[1]) for s, e in young)
+    later = [(s, e) for n, s, e in pairs if n >= 5]
+    assert later and any(np.hypot(e.east_m - s[0], e.north_m - s[1]) > 0.01 for s, e in later)
