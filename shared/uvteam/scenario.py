@@ -285,8 +285,9 @@ def _validate(sc: Scenario, src: str) -> None:
     need(sc.run.frame_rate_hz > 0 and sc.run.duration_s > 0 and len(sc.run.seeds) > 0, "run", "positive rate, duration, seeds")
     need(len(sc.ugvs.initial_distance_m) == 2, "ugvs.initial_distance_m", "[lo, hi]")
     need(sc.gnss.fix_rate_hz > 0, "gnss.fix_rate_hz", "> 0")
-    need(sc.gnss.sigma_m >= 0 and sc.gnss.bias_walk_m_per_sqrt_s >= 0 and sc.gnss.bias_sigma_m >= 0,
-         "gnss", "sigma_m, bias_walk_m_per_sqrt_s and bias_sigma_m >= 0")
+    for k in ("sigma_m", "bias_walk_m_per_sqrt_s", "bias_sigma_m"):
+        v = getattr(sc.gnss, k)
+        need(math.isfinite(v) and v >= 0, f"gnss.{k}", ">= 0")
     need(sc.gnss.bias_time_s > 0, "gnss.bias_time_s", "> 0")
     need(len(sc.crowds) >= 1, "crowds", "at least one crowd")
     for i, c in enumerate(sc.crowds):

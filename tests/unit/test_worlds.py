@@ -196,7 +196,9 @@ IMAGERY = [{"path": "x.jpg", "gsd_m": 0.02}]
     ({"crowds[0].turn_sigma_deg_s": -1.0}, "crowds[0].turn_sigma_deg_s"),  # negative
     ({"crowds[0].turn_sigma_deg_s": 45.0}, "crowds[0].turn_sigma_deg_s"),  # over 30 deg/s
     ({"crowds[0].turn_sigma_deg_s": float("nan")}, "crowds[0].turn_sigma_deg_s"),
-    ({"gnss.bias_sigma_m": -1.0}, "gnss"),                                # negative
+    ({"gnss.bias_sigma_m": -1.0}, "gnss.bias_sigma_m"),                   # negative
+    ({"gnss.bias_sigma_m": float("inf")}, "gnss.bias_sigma_m"),           # infinite
+    ({"gnss.sigma_m": float("nan")}, "gnss.sigma_m"),
     ({"gnss.bias_time_s": 0.0}, "gnss.bias_time_s"),                      # no correlation time
     ({"sky": {"clouds": 3}}, "sky"),                                     # unknown section
 ])
