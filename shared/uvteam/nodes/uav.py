@@ -48,6 +48,10 @@ MIN_ALT_AGL_M = 1.0        # below this the autopilot's height above ground is n
 FIX_FRESH_S = 2.0          # a UGV fix older than this predicts nothing
 MOVING_M_S = 0.5           # a UGV reporting more than this moves: its label rides on motion
 PREDICTION_SIGMAS = 3.0
+FIX_HISTORY = 30           # fixes kept per UGV
+VELOCITY_SPAN_S = (0.3, 1.5)   # a velocity from fixes this far apart when the receiver gives none
+VELOCITY_FRESH_S = 0.3     # a fix older than this says where a UGV may be, not how it moves now (a UGV
+                           # on station turns up to ~100 deg/s: a 0.5 s old velocity refuted its own label)
 DEFAULT_POSITION_SIGMA_M = 2.0
 
 
@@ -67,6 +71,7 @@ class UavNode:
         self.refusals = Counts()
         self.frame_en: LocalFrame | None = None
         self.ugv_fix: dict[str, Fix] = {}
+        self.ugv_fixes: dict[str, deque[Fix]] = {}   # the recent ones, for a velocity the receiver does not give
         self.ugv_of_color = dict(self.u.colors)
         self.vision_ms: deque[float] = deque(maxlen=500)
         self._warn = RateLimitedLog(log)
@@ -91,6 +96,7 @@ class UavNode:
         old = self.ugv_fix.get(fix.vehicle)
         if old is None or fix.stamp_s > old.stamp_s:
             self.ugv_fix[fix.vehicle] = fix
+            self.ugv_fixes.setdefault(fix.vehicle, deque(maxlen=FIX_HISTORY)).append(fix)
 
     def on_sensor(self, key: str, det: Detections) -> None:
         """The sensor model's detections (by roof color) -> this UAV's detections (by UGV id)."""
@@ -156,14 +162,30 @@ class UavNode:
             if f is None or not 0.0 <= now_s - f.stamp_s <= FIX_FRESH_S:
                 continue
             en = np.array([self.frame_en.wgs84_to_ground(f.lat_deg, f.lon_deg)], float)
-            speed = math.hypot(f.v_east_m_s or 0.0, f.v_north_m_s or 0.0)
+            v = self.ugv_velocity(ugv)
+            speed = math.hypot(*v) if v is not None else 0.0
             sigma = math.sqrt(float(prior.sigma_m(en)[0]) ** 2 + f.h_acc_m ** 2 + (speed * (now_s - f.stamp_s)) ** 2)
-            xy = prior.ground_to_px(en)[0]
+            xy = prior.ground_to_px(np.vstack([en, en + (v if v is not None else 0.0)]))
             if np.isfinite(xy).all():
-                out[color] = LabelExpectation((float(xy[0]), float(xy[1])),
+                out[color] = LabelExpectation((float(xy[0, 0]), float(xy[0, 1])),
                                               max(PREDICTION_SIGMAS * sigma, 2.0 * self.u.label_side_m) * px_per_m,
-                                              speed > MOVING_M_S)
+                                              speed > MOVING_M_S,
+                                              None if v is None or now_s - f.stamp_s > VELOCITY_FRESH_S
+                                              else (float(xy[1, 0] - xy[0, 0]), float(xy[1, 1] - xy[0, 1])))
         return out
+
+    def ugv_velocity(self, ugv: str) -> np.ndarray | None:
+        """(east, north) m/s: the UGV's receiver's, else from its fixes over the last 0.3-1.5 s, else None."""
+        f = self.ugv_fix[ugv]
+        if f.v_east_m_s is not None:
+            return np.array([f.v_east_m_s, f.v_north_m_s], float)
+        lo, hi = VELOCITY_SPAN_S
+        for g in self.ugv_fixes.get(ugv, ()):   # oldest first
+            if lo <= f.stamp_s - g.stamp_s <= hi:
+                a = np.array(self.frame_en.wgs84_to_ground(g.lat_deg, g.lon_deg), float)
+                b = np.array(self.frame_en.wgs84_to_ground(f.lat_deg, f.lon_deg), float)
+                return (b - a) / (f.stamp_s - g.stamp_s)
+        return None
 
     def process_frame(self, stamp_s: float, seq: int, img: np.ndarray) -> Detections | None:
         """One image through the vision pipeline at the autopilot's height above ground -> detections."""

@@ -556,15 +556,30 @@ class MotionDetector:
             return None
         s = self.cfg.process_scale
         q = (np.asarray(xy_px, float).reshape(-1, 2) + 0.5) * s - 0.5
-        reg = self._pending.registration if self._pending is not None else None
-        if reg is not None and reg.H_curr_from_prev is not None and len(q):
-            q = cv2.perspectiveTransform(q.reshape(-1, 1, 2), np.linalg.inv(reg.H_curr_from_prev)).reshape(-1, 2)
+        H = self._pending_H()
+        if H is not None and len(q):
+            q = cv2.perspectiveTransform(q.reshape(-1, 1, 2), np.linalg.inv(H)).reshape(-1, 2)
         p = np.round(q).astype(int)
         h, w = self._busy.shape
         ok = (p[:, 0] >= 0) & (p[:, 0] < w) & (p[:, 1] >= 0) & (p[:, 1] < h)
         out = np.zeros(len(p), bool)
         out[ok] = self._busy[p[ok, 1], p[ok, 0]] > 0
         return out
+
+    def _pending_H(self) -> np.ndarray | None:
+        reg = self._pending.registration if self._pending is not None else None
+        return reg.H_curr_from_prev if reg is not None else None
+
+    def carry_forward(self, xy_px: np.ndarray) -> np.ndarray:
+        """(N, 2) full-resolution points of the previous frame, where the ground under them is in this one
+        (after :meth:`register`; unmoved when the camera's motion could not be fitted)."""
+        xy = np.asarray(xy_px, float).reshape(-1, 2)
+        H = self._pending_H()
+        if H is None or not len(xy):
+            return xy.copy()
+        s = self.cfg.process_scale
+        q = cv2.perspectiveTransform(((xy + 0.5) * s - 0.5).reshape(-1, 1, 2), H).reshape(-1, 2)
+        return (q + 0.5) / s - 0.5
 
     def update(self, frame: np.ndarray, stamp_s: float, carve_xy_px: np.ndarray | None = None,
                carve_radius_px: float = 0.0, carve_ids: Sequence | None = None) -> MotionResult:

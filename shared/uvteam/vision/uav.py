@@ -18,6 +18,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..blobs import Blobs, Landmarks
+from .label_tracks import LabelTracks
 from .landmarks import LabelCandidate, LandmarkConfig, label_candidates
 from .motion import MotionConfig, MotionDetector, Registration, bounds_for_altitude
 
@@ -65,6 +66,7 @@ class LabelExpectation:
     xy_px: tuple[float, float]
     radius_px: float              # 3 sigma of the prediction
     moving: bool                  # the UGV reports it moves: its label rides on motion
+    velocity_px_s: tuple[float, float] | None = None   # the UGV's reported velocity in this frame's pixels
 
 
 @dataclass(frozen=True, slots=True)
@@ -92,6 +94,7 @@ class UavVision:
         self._motion: MotionDetector | None = None
         self._lm_cfg = cfg.landmarks
         self._tracked: dict[str, tuple[float, float, float]] = {}   # color -> (stamp, x, y) of its last label
+        self._tracks = LabelTracks()
         self._frames = 0
 
     def _configure(self, alt_agl_m: float) -> None:
@@ -123,6 +126,7 @@ class UavVision:
         windows = self._windows(stamp_s, px_per_m, expect)
         cands = label_candidates(frame_bgr, self._lm_cfg, self.cfg.colors, windows)
         self._motion.register(frame_bgr, stamp_s)   # so that "on what moved" follows a jolting camera
+        self._tracks.carry(self._motion.carry_forward)
         chosen, refused = self._choose(cands, stamp_s, px_per_m, expect)
         lms = Landmarks.from_dict(chosen)
         motion = self._motion.update(frame_bgr, stamp_s, lms.xy_px, self.cfg.vehicle_radius_m * px_per_m, lms.ugv)
@@ -157,33 +161,44 @@ class UavVision:
 
     def _choose(self, cands: list[LabelCandidate], stamp_s: float, px_per_m: float,
                 expect: dict[str, LabelExpectation]) -> tuple[dict[str, tuple[float, float]], dict[str, str]]:
-        """Each color's label: of its label-sized blobs, the one where its UGV's fix says it is (within
-        the prediction's 3 sigma) and, when the UGV moves, on what moved; without a prediction, the one
-        nearest where the label was last frame, else (acquiring) the largest on what moved, else the
-        largest. A color whose blobs all fail is not seen this frame, and why is said."""
+        """Each color's label. With a prediction for any UGV: of its label-sized blobs within the prediction's
+        3 sigma and, when the UGV moves, on what moved, the one whose track has moved as its UGV reports
+        (:mod:`uvteam.vision.label_tracks`); a color without a prediction this frame keeps a confirmed track
+        only. With none at all (no pose, or no fix yet): the one nearest where the label was last frame, else
+        (acquiring) the largest on what moved, else the largest. A color whose blobs all fail is not seen
+        this frame, and why is said."""
         chosen: dict[str, tuple[float, float]] = {}
         refused: dict[str, str] = {}
         by_color: dict[str, list[LabelCandidate]] = {}
         for c in cands:
             by_color.setdefault(c.color, []).append(c)
-        for color, cs in by_color.items():
-            xy = np.array([[c.x_px, c.y_px] for c in cs])
-            moved = self._motion.moved_near(xy) if self._motion is not None else None
+        for color in self.cfg.colors:
+            cs = by_color.get(color, [])
+            xy = np.array([[c.x_px, c.y_px] for c in cs], float).reshape(-1, 2)
+            moved = self._motion.moved_near(xy) if self._motion is not None and len(xy) else None
             e = expect.get(color)
+            if expect:
+                ok = np.ones(len(xy), bool)
+                if e is not None and len(xy):
+                    ok = np.hypot(*(xy - e.xy_px).T) <= e.radius_px
+                    if not ok.any():
+                        refused[color] = "far_from_fix"
+                    elif e.moving and moved is not None:
+                        if not (ok & moved).any():
+                            refused[color] = "not_moving"
+                        ok &= moved
+                v = None if e is None or e.velocity_px_s is None else np.array(e.velocity_px_s, float)
+                k, why = self._tracks.update(color, stamp_s, xy[ok], v, px_per_m,
+                                             None if e is None else np.array(e.xy_px, float), start=e is not None)
+                if k is not None:
+                    chosen[color] = tuple(map(float, xy[ok][k]))
+                elif why and color not in refused:
+                    refused[color] = why
+                continue
+            if not len(xy):
+                continue
             last = self._tracked.get(color)
-            if e is not None:
-                d = np.hypot(*(xy - e.xy_px).T)
-                ok = d <= e.radius_px
-                if not ok.any():
-                    refused[color] = "far_from_fix"
-                    continue
-                if e.moving and moved is not None:
-                    if not (ok & moved).any():
-                        refused[color] = "not_moving"
-                        continue
-                    ok &= moved
-                k = int(np.argmin(np.where(ok, d, np.inf)))
-            elif last is not None and stamp_s - last[0] <= TRACK_KEEP_S:
+            if last is not None and stamp_s - last[0] <= TRACK_KEEP_S:
                 d = np.hypot(xy[:, 0] - last[1], xy[:, 1] - last[2])
                 if d.min() > self._reach_px(stamp_s, last[0], px_per_m):
                     refused[color] = "jumped"
