@@ -50,8 +50,9 @@ MOVING_M_S = 0.5           # a UGV reporting more than this moves: its label rid
 PREDICTION_SIGMAS = 3.0
 FIX_HISTORY = 30           # fixes kept per UGV
 VELOCITY_SPAN_S = (0.3, 1.5)   # a velocity from fixes this far apart when the receiver gives none
-VELOCITY_FRESH_S = 0.3     # a fix older than this says where a UGV may be, not how it moves now (a UGV
-                           # on station turns up to ~100 deg/s: a 0.5 s old velocity refuted its own label)
+VELOCITY_FRESH_S = 0.3     # a fix older than this (or 1.5 fix intervals of its UGV, if longer) says where a
+                           # UGV may be, not how it moves now (a UGV on station turns up to ~100 deg/s: a 0.5 s
+                           # old velocity at 10 Hz refuted its own label)
 DEFAULT_POSITION_SIGMA_M = 2.0
 
 
@@ -170,9 +171,14 @@ class UavNode:
                 out[color] = LabelExpectation((float(xy[0, 0]), float(xy[0, 1])),
                                               max(PREDICTION_SIGMAS * sigma, 2.0 * self.u.label_side_m) * px_per_m,
                                               speed > MOVING_M_S,
-                                              None if v is None or now_s - f.stamp_s > VELOCITY_FRESH_S
+                                              None if v is None or now_s - f.stamp_s > self.velocity_fresh_s(ugv)
                                               else (float(xy[1, 0] - xy[0, 0]), float(xy[1, 1] - xy[0, 1])))
         return out
+
+    def velocity_fresh_s(self, ugv: str) -> float:
+        """How long a UGV's fix tells how it moves: 0.3 s, or 1.5 of its fix intervals (median) if longer."""
+        t = [f.stamp_s for f in self.ugv_fixes.get(ugv, ())]
+        return max(VELOCITY_FRESH_S, 1.5 * float(np.median(np.diff(t)))) if len(t) >= 2 else VELOCITY_FRESH_S
 
     def ugv_velocity(self, ugv: str) -> np.ndarray | None:
         """(east, north) m/s: the UGV's receiver's, else from its fixes over the last 0.3-1.5 s, else None."""
