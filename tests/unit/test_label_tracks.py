@@ -88,3 +88,30 @@ def test_a_confirmed_track_is_refuted_by_three_failed_checks_in_a_row_not_one():
     assert all(taken for taken, _ in states[5:20])
     first_refuted = next(k for k, (_, s) in enumerate(states) if s == [REFUTED])
     assert first_refuted == 25 and not any(taken for taken, _ in states[first_refuted:])
+
+
+def _zigzag():
+    """A label driving 2.5 m/s east, reversing to west at 1.0 s and back east at 2.0 s; its UGV's fixes at 5 Hz
+    arrive 0.2 s late (the field's receiver). Per frame: whether the label was taken."""
+    tracks = LabelTracks()
+    taken, x = [], 300.0
+
+    def v_at(t):
+        return 25.0 if t < 1.0 or t >= 2.0 else -25.0
+
+    for k in range(40):
+        t = 0.1 * k
+        if k:
+            x += v_at(t - 0.1) * 0.1
+        fix_t = np.floor((t - 0.2) / 0.2 + 1e-9) * 0.2          # the newest fix that has arrived
+        j, _ = tracks.update("red", t, np.array([[x, 200.0]]), np.array([v_at(fix_t), 0.0]), PX_PER_M,
+                             velocity_stamp_s=fix_t)
+        taken.append(j is not None)
+    return taken
+
+
+def test_a_late_fix_is_compared_at_its_own_time_so_a_turning_ugv_keeps_its_label():
+    # compared at the fix's capture time the label is taken from when the fixes show it has moved 0.8 m (frame
+    # 6) to the end, through both reversals (each between two fixes: no verdict on the spans across them)
+    taken = _zigzag()
+    assert not any(taken[:6]) and all(taken[6:])

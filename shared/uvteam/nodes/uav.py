@@ -172,7 +172,8 @@ class UavNode:
                                               max(PREDICTION_SIGMAS * sigma, 2.0 * self.u.label_side_m) * px_per_m,
                                               speed > MOVING_M_S,
                                               None if v is None or now_s - f.stamp_s > self.velocity_fresh_s(ugv)
-                                              else (float(xy[1, 0] - xy[0, 0]), float(xy[1, 1] - xy[0, 1])))
+                                              else (float(xy[1, 0] - xy[0, 0]), float(xy[1, 1] - xy[0, 1])),
+                                              f.stamp_s)
         return out
 
     def velocity_fresh_s(self, ugv: str) -> float:

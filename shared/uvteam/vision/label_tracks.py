@@ -31,8 +31,10 @@ class LabelTrackConfig:
     agree_fraction: float = 0.5      # the track and its UGV agree within this fraction of the UGV's displacement
     noise_m: float = 0.3             # ... plus this (the label's centroid and the registration's drift)
     noise_min_px: float = 2.0
+    unsure_fraction: float = 0.25    # no verdict when where the UGV went between its fixes is this unsure
     reach_m: float = 2.0             # a track takes a candidate this near where it should be now
     speed_slack_m_s: float = 1.0     # ... plus this per second unseen (the reported velocity's error)
+    max_gap_s: float = 1.5           # velocity samples further apart than this say nothing of between them
     unknown_speed_m_s: float = 6.0   # ... or this per second over frames without the UGV's velocity
     refute_after: int = 3            # a confirmed track is refuted after this many failed checks in a row
     keep_s: float = 0.5              # a pending or refuted track unseen this long is dropped
@@ -54,7 +56,7 @@ class _Track:
 @dataclass(slots=True)
 class _Color:
     tracks: list[_Track] = field(default_factory=list)
-    velocity: list[tuple[float, np.ndarray | None]] = field(default_factory=list)   # (stamp, px/s or None)
+    velocity: list[tuple[float, np.ndarray]] = field(default_factory=list)   # (when measured, px/s), by time
 
 
 class LabelTracks:
@@ -75,38 +77,64 @@ class LabelTracks:
     def state_of(self, color: str) -> list[str]:
         return [t.state for t in self._colors.get(color, _Color()).tracks]
 
-    def _expected(self, c: _Color, t0_s: float, t1_s: float) -> np.ndarray | None:
-        """The UGV's displacement in pixels from ``t0_s`` to ``t1_s`` by its velocity samples (None if any is
-        unknown, or the samples do not reach back)."""
-        vs = [(s, v) for s, v in c.velocity if t0_s - 1e-6 <= s <= t1_s + 1e-6]
-        if not vs or vs[0][0] > t0_s + 1e-6:
+    def _expected(self, c: _Color, t0_s: float, t1_s: float, hold: bool = False) -> np.ndarray | None:
+        """The UGV's displacement in pixels from ``t0_s`` to ``t1_s``: its velocity, linear between samples,
+        integrated. None where the samples do not span the interval (or leave a gap over ``max_gap_s`` in it);
+        with ``hold``, the newest sample is held up to ``t1_s``."""
+        vs = c.velocity
+        if not vs or t1_s <= t0_s:
+            return None if not vs else np.zeros(2)
+        ts = np.array([s for s, _ in vs])
+        v = np.array([vv for _, vv in vs])
+        if hold and t1_s > ts[-1]:
+            ts, v = np.r_[ts, t1_s], np.vstack([v, v[-1]])
+        if ts[0] > t0_s + 1e-6 or ts[-1] < t1_s - 1e-6:
             return None
-        if any(v is None for _, v in vs):
+        a, b = np.searchsorted(ts, t0_s, "right") - 1, np.searchsorted(ts, t1_s, "left")
+        if len(ts) > 1 and np.diff(ts[max(a, 0):b + 1]).max(initial=0.0) > self.cfg.max_gap_s:
             return None
-        d = np.zeros(2)
-        for (sa, va), (sb, vb) in zip(vs, vs[1:]):
-            d += 0.5 * (va + vb) * (sb - sa)
-        return d
+        inner = (ts > t0_s) & (ts < t1_s)
+        t = np.r_[t0_s, ts[inner], t1_s]
+        vx = np.interp(t, ts, v[:, 0])
+        vy = np.interp(t, ts, v[:, 1])
+        dt = np.diff(t)
+        return np.array([np.sum(0.5 * (vx[1:] + vx[:-1]) * dt), np.sum(0.5 * (vy[1:] + vy[:-1]) * dt)])
+
+    def _unsure(self, c: _Color, t0_s: float, t1_s: float) -> float:
+        """How far off :meth:`_expected` may be, in pixels, for not knowing when between two samples the velocity
+        changed: half of each change times its interval (a step at either end), over the samples the interval
+        touches. A UGV turning sharply between two fixes makes it large."""
+        ts = np.array([s for s, _ in c.velocity])
+        v = np.array([vv for _, vv in c.velocity])
+        a = max(int(np.searchsorted(ts, t0_s, "right")) - 1, 0)
+        b = min(int(np.searchsorted(ts, t1_s, "left")), len(ts) - 1)
+        if b <= a:
+            return 0.0
+        return float(np.sum(0.5 * np.hypot(*np.diff(v[a:b + 1], axis=0).T) * np.diff(ts[a:b + 1])))
 
     def update(self, color: str, stamp_s: float, cands_xy_px: np.ndarray, velocity_px_s: np.ndarray | None,
-               px_per_m: float, prefer_xy_px: np.ndarray | None = None, start: bool = True) -> tuple[int | None, str]:
+               px_per_m: float, prefer_xy_px: np.ndarray | None = None, start: bool = True,
+               velocity_stamp_s: float | None = None) -> tuple[int | None, str]:
         """This frame's candidates of ``color`` (N, 2), already gated by the prediction, and its UGV's velocity
-        in pixels per second (None when not known this frame). Returns the index of the candidate that is the
+        in pixels per second (None when not known this frame) as measured at ``velocity_stamp_s`` (its fix's
+        time; this frame's by default: a fix arrives late, and a UGV turns in the meantime). Returns the index of the candidate that is the
         label (a confirmed track's; of several, the nearest ``prefer_xy_px``), or None and why: ``unconfirmed``
         (its track's UGV has not moved enough yet to tell), ``moved_unlike_ugv`` (every track was refuted),
         ``no_track`` (candidates, none on a track, and ``start`` False). New tracks start only when ``start``."""
         cfg = self.cfg
         c = self._colors.setdefault(color, _Color())
-        v = None if velocity_px_s is None else np.asarray(velocity_px_s, float)
-        c.velocity.append((stamp_s, v))
-        c.velocity = [(s, vv) for s, vv in c.velocity if stamp_s - s <= cfg.window_s + cfg.confirmed_keep_s]
+        if velocity_px_s is not None:
+            vs = stamp_s if velocity_stamp_s is None else velocity_stamp_s
+            c.velocity = [(s, vv) for s, vv in c.velocity if s != vs and stamp_s - s <= cfg.window_s + cfg.confirmed_keep_s]
+            c.velocity.append((vs, np.asarray(velocity_px_s, float)))
+            c.velocity.sort(key=lambda sv: sv[0])
         c.tracks = [t for t in c.tracks
                     if stamp_s - t.seen_s <= (cfg.confirmed_keep_s if t.state == CONFIRMED else cfg.keep_s)]
         cands = np.asarray(cands_xy_px, float).reshape(-1, 2)
         # each track takes the nearest candidate to where it should be now, nearest pairs first
         pairs = []
         for i, t in enumerate(c.tracks):
-            moved = self._expected(c, t.seen_s, stamp_s)
+            moved = self._expected(c, t.seen_s, stamp_s, hold=True)
             unseen_s = stamp_s - t.seen_s
             if moved is None:
                 moved, slack = np.zeros(2), cfg.unknown_speed_m_s
@@ -142,21 +170,31 @@ class LabelTracks:
         return None, "unconfirmed" if (states or start) else "no_track"
 
     def _check(self, c: _Color, t: _Track, px_per_m: float) -> str:
-        """A track's state after its newest point: its displacement against its UGV's over the shortest span back
-        from now in which the UGV covered ``check_min_m`` (its velocity known in every frame of it). A confirmed
-        track is refuted only by ``refute_after`` failed checks in a row (one frame's blob cut by a passing
-        walker is not a lie)."""
+        """A track's state after its newest point: its displacement against its UGV's up to the newest velocity
+        sample (the track's place then interpolated between frames), over the shortest span back in which the
+        UGV covered ``check_min_m``. A confirmed track is refuted only by ``refute_after`` failed checks in a
+        row (one frame's blob cut by a passing walker is not a lie)."""
         cfg = self.cfg
-        t1, x1, y1 = t.points[-1]
-        for t0, x0, y0 in reversed(t.points[:-1]):
-            expected = self._expected(c, t0, t1)
+        if not c.velocity:
+            return t.state
+        ts = np.array([p[0] for p in t.points])
+        t1 = min(ts[-1], c.velocity[-1][0])
+        if t1 <= ts[0]:
+            return t.state
+        xs, ys = np.array([p[1] for p in t.points]), np.array([p[2] for p in t.points])
+        x1, y1 = float(np.interp(t1, ts, xs)), float(np.interp(t1, ts, ys))
+        for k in range(int(np.searchsorted(ts, t1, "left")) - 1, -1, -1):
+            expected = self._expected(c, ts[k], t1)
             if expected is None:
                 return t.state                  # the UGV's velocity is not known over any longer span either
             e = float(np.hypot(*expected))
             if e >= cfg.check_min_m * px_per_m:
+                x0, y0 = xs[k], ys[k]
                 break
         else:
             return t.state                      # the UGV has not moved enough to tell: as it was
+        if self._unsure(c, ts[k], t1) > cfg.unsure_fraction * e:
+            return t.state                      # it turned between fixes: no telling where it was meanwhile
         err = float(np.hypot(x1 - x0 - expected[0], y1 - y0 - expected[1]))
         noise = max(cfg.noise_min_px, cfg.noise_m * px_per_m)
         if err <= cfg.agree_fraction * e + noise:

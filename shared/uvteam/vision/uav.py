@@ -67,6 +67,7 @@ class LabelExpectation:
     radius_px: float              # 3 sigma of the prediction
     moving: bool                  # the UGV reports it moves: its label rides on motion
     velocity_px_s: tuple[float, float] | None = None   # the UGV's reported velocity in this frame's pixels
+    velocity_stamp_s: float | None = None              # ... as measured then (its fix's time; None: now)
 
 
 @dataclass(frozen=True, slots=True)
@@ -189,7 +190,8 @@ class UavVision:
                         ok &= moved
                 v = None if e is None or e.velocity_px_s is None else np.array(e.velocity_px_s, float)
                 k, why = self._tracks.update(color, stamp_s, xy[ok], v, px_per_m,
-                                             None if e is None else np.array(e.xy_px, float), start=e is not None)
+                                             None if e is None else np.array(e.xy_px, float), start=e is not None,
+                                             velocity_stamp_s=None if e is None else e.velocity_stamp_s)
                 if k is not None:
                     chosen[color] = tuple(map(float, xy[ok][k]))
                 elif why and color not in refused:
