@@ -15,6 +15,8 @@ test on one frame tells them apart.
 
 from __future__ import annotations
 
+import bisect
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -53,10 +55,62 @@ class _Track:
         return np.array(self.points[-1][1:])
 
 
+class _Motion:
+    """A UGV's velocity samples (in pixels per second, at the times they were measured) as its displacement
+    between any two times: linear between samples, held after the newest with ``hold``, unknown (None) before
+    the oldest or across a gap of over ``max_gap_s``. Plain Python: a handful of samples, asked a few dozen
+    times a frame, where NumPy's per-call cost is most of the time."""
+
+    def __init__(self, samples: list[tuple[float, np.ndarray]], max_gap_s: float) -> None:
+        self.ts = [float(s) for s, _ in samples]
+        self.v = [(float(v[0]), float(v[1])) for _, v in samples]
+        self.cum = [(0.0, 0.0)]
+        self.unsure_cum = [0.0]
+        self.known_from = self.ts[0] if self.ts else math.inf
+        for k in range(1, len(self.ts)):
+            dt = self.ts[k] - self.ts[k - 1]
+            (ax, ay), (bx, by), (cx, cy) = self.v[k - 1], self.v[k], self.cum[-1]
+            self.cum.append((cx + 0.5 * (ax + bx) * dt, cy + 0.5 * (ay + by) * dt))
+            # a step at either end of the interval instead of the line: half the change times the interval
+            self.unsure_cum.append(self.unsure_cum[-1] + 0.5 * math.hypot(bx - ax, by - ay) * dt)
+            if dt > max_gap_s:
+                self.known_from = self.ts[k]
+
+    @property
+    def newest_s(self) -> float | None:
+        return self.ts[-1] if self.ts else None
+
+    def at(self, t: float, hold: bool = False) -> tuple[float, float] | None:
+        """The displacement from the oldest sample to ``t``, or None where unknown."""
+        ts, v, n = self.ts, self.v, len(self.ts)
+        if not n or t < self.known_from - 1e-6 or (t > ts[-1] + 1e-6 and not hold):
+            return None
+        if t >= ts[-1] - 1e-9:
+            (cx, cy), (vx, vy), dt = self.cum[-1], v[-1], t - ts[-1]
+            return cx + vx * dt, cy + vy * dt
+        i = min(max(bisect.bisect_right(ts, t) - 1, 0), n - 2)
+        dt, h = t - ts[i], ts[i + 1] - ts[i]
+        (ax, ay), (bx, by), (cx, cy) = v[i], v[i + 1], self.cum[i]
+        return (cx + ax * dt + 0.5 * (bx - ax) / h * dt * dt, cy + ay * dt + 0.5 * (by - ay) / h * dt * dt)
+
+    def between(self, t0: float, t1: float, hold: bool = False) -> tuple[float, float] | None:
+        a, b = self.at(t0), self.at(t1, hold)
+        return None if a is None or b is None else (b[0] - a[0], b[1] - a[1])
+
+    def unsure(self, t0: float, t1: float) -> float:
+        """How far off a displacement from ``t0`` to ``t1`` may be, in pixels, for not knowing when between two
+        samples the velocity changed (over the samples the span touches)."""
+        n = len(self.ts)
+        a = max(bisect.bisect_right(self.ts, t0) - 1, 0)
+        b = min(bisect.bisect_left(self.ts, t1), n - 1)
+        return self.unsure_cum[b] - self.unsure_cum[a] if b > a else 0.0
+
+
 @dataclass(slots=True)
 class _Color:
     tracks: list[_Track] = field(default_factory=list)
     velocity: list[tuple[float, np.ndarray]] = field(default_factory=list)   # (when measured, px/s), by time
+    motion: _Motion | None = None                                            # built from ``velocity``
 
 
 class LabelTracks:
@@ -69,48 +123,19 @@ class LabelTracks:
 
     def carry(self, to_this_frame) -> None:
         """Move every stored point into this frame: ``to_this_frame`` maps (N, 2) pixels of the previous frame."""
-        for c in self._colors.values():
-            for t in c.tracks:
-                xy = to_this_frame(np.array([p[1:] for p in t.points]))
-                t.points = [(p[0], float(x), float(y)) for p, (x, y) in zip(t.points, xy)]
+        tracks = [t for c in self._colors.values() for t in c.tracks]
+        pts = [p for t in tracks for p in t.points]
+        if not pts:
+            return
+        xy = to_this_frame(np.array([p[1:] for p in pts], float)).tolist()   # one call for every point
+        k = 0
+        for t in tracks:
+            n = len(t.points)
+            t.points = [(p[0], x, y) for p, (x, y) in zip(t.points, xy[k:k + n])]
+            k += n
 
     def state_of(self, color: str) -> list[str]:
         return [t.state for t in self._colors.get(color, _Color()).tracks]
-
-    def _expected(self, c: _Color, t0_s: float, t1_s: float, hold: bool = False) -> np.ndarray | None:
-        """The UGV's displacement in pixels from ``t0_s`` to ``t1_s``: its velocity, linear between samples,
-        integrated. None where the samples do not span the interval (or leave a gap over ``max_gap_s`` in it);
-        with ``hold``, the newest sample is held up to ``t1_s``."""
-        vs = c.velocity
-        if not vs or t1_s <= t0_s:
-            return None if not vs else np.zeros(2)
-        ts = np.array([s for s, _ in vs])
-        v = np.array([vv for _, vv in vs])
-        if hold and t1_s > ts[-1]:
-            ts, v = np.r_[ts, t1_s], np.vstack([v, v[-1]])
-        if ts[0] > t0_s + 1e-6 or ts[-1] < t1_s - 1e-6:
-            return None
-        a, b = np.searchsorted(ts, t0_s, "right") - 1, np.searchsorted(ts, t1_s, "left")
-        if len(ts) > 1 and np.diff(ts[max(a, 0):b + 1]).max(initial=0.0) > self.cfg.max_gap_s:
-            return None
-        inner = (ts > t0_s) & (ts < t1_s)
-        t = np.r_[t0_s, ts[inner], t1_s]
-        vx = np.interp(t, ts, v[:, 0])
-        vy = np.interp(t, ts, v[:, 1])
-        dt = np.diff(t)
-        return np.array([np.sum(0.5 * (vx[1:] + vx[:-1]) * dt), np.sum(0.5 * (vy[1:] + vy[:-1]) * dt)])
-
-    def _unsure(self, c: _Color, t0_s: float, t1_s: float) -> float:
-        """How far off :meth:`_expected` may be, in pixels, for not knowing when between two samples the velocity
-        changed: half of each change times its interval (a step at either end), over the samples the interval
-        touches. A UGV turning sharply between two fixes makes it large."""
-        ts = np.array([s for s, _ in c.velocity])
-        v = np.array([vv for _, vv in c.velocity])
-        a = max(int(np.searchsorted(ts, t0_s, "right")) - 1, 0)
-        b = min(int(np.searchsorted(ts, t1_s, "left")), len(ts) - 1)
-        if b <= a:
-            return 0.0
-        return float(np.sum(0.5 * np.hypot(*np.diff(v[a:b + 1], axis=0).T) * np.diff(ts[a:b + 1])))
 
     def update(self, color: str, stamp_s: float, cands_xy_px: np.ndarray, velocity_px_s: np.ndarray | None,
                px_per_m: float, prefer_xy_px: np.ndarray | None = None, start: bool = True,
@@ -128,20 +153,21 @@ class LabelTracks:
             c.velocity = [(s, vv) for s, vv in c.velocity if s != vs and stamp_s - s <= cfg.window_s + cfg.confirmed_keep_s]
             c.velocity.append((vs, np.asarray(velocity_px_s, float)))
             c.velocity.sort(key=lambda sv: sv[0])
+        c.motion = _Motion(c.velocity, cfg.max_gap_s)
         c.tracks = [t for t in c.tracks
                     if stamp_s - t.seen_s <= (cfg.confirmed_keep_s if t.state == CONFIRMED else cfg.keep_s)]
         cands = np.asarray(cands_xy_px, float).reshape(-1, 2)
         # each track takes the nearest candidate to where it should be now, nearest pairs first
         pairs = []
         for i, t in enumerate(c.tracks):
-            moved = self._expected(c, t.seen_s, stamp_s, hold=True)
+            moved = c.motion.between(t.seen_s, stamp_s, hold=True) if c.motion is not None else None
             unseen_s = stamp_s - t.seen_s
             if moved is None:
-                moved, slack = np.zeros(2), cfg.unknown_speed_m_s
+                moved, slack = (0.0, 0.0), cfg.unknown_speed_m_s
             else:
                 slack = cfg.speed_slack_m_s
             reach = (cfg.reach_m + slack * unseen_s) * px_per_m
-            d = np.hypot(*(cands - (t.last_xy + moved)).T) if len(cands) else np.zeros(0)
+            d = np.hypot(*(cands - (t.last_xy + np.array(moved))).T) if len(cands) else np.zeros(0)
             pairs += [(float(d[j]), i, j) for j in range(len(cands)) if d[j] <= reach]
         track_of: dict[int, int] = {}            # candidate -> its track
         for _, i, j in sorted(pairs):
@@ -172,30 +198,37 @@ class LabelTracks:
     def _check(self, c: _Color, t: _Track, px_per_m: float) -> str:
         """A track's state after its newest point: its displacement against its UGV's up to the newest velocity
         sample (the track's place then interpolated between frames), over the shortest span back in which the
-        UGV covered ``check_min_m``. A confirmed track is refuted only by ``refute_after`` failed checks in a
-        row (one frame's blob cut by a passing walker is not a lie)."""
+        UGV covered ``check_min_m`` and its velocity was known throughout; no verdict when where the UGV went
+        over that span is unsure (it turned between two fixes). A confirmed track is refuted only by
+        ``refute_after`` failed checks in a row (one frame's blob cut by a passing walker is not a lie)."""
         cfg = self.cfg
-        if not c.velocity:
+        m = c.motion
+        if m is None or m.newest_s is None:
             return t.state
-        ts = np.array([p[0] for p in t.points])
-        t1 = min(ts[-1], c.velocity[-1][0])
-        if t1 <= ts[0]:
-            return t.state
-        xs, ys = np.array([p[1] for p in t.points]), np.array([p[2] for p in t.points])
-        x1, y1 = float(np.interp(t1, ts, xs)), float(np.interp(t1, ts, ys))
-        for k in range(int(np.searchsorted(ts, t1, "left")) - 1, -1, -1):
-            expected = self._expected(c, ts[k], t1)
-            if expected is None:
+        ts = [p[0] for p in t.points]
+        t1 = min(ts[-1], m.newest_s)
+        d1 = m.at(t1)
+        k_end = bisect.bisect_left(ts, t1)       # the points before t1
+        for k in range(k_end - 1, -1, -1):
+            d0 = m.at(ts[k])
+            if d0 is None or d1 is None:
                 return t.state                  # the UGV's velocity is not known over any longer span either
-            e = float(np.hypot(*expected))
+            expected = (d1[0] - d0[0], d1[1] - d0[1])
+            e = math.hypot(*expected)
             if e >= cfg.check_min_m * px_per_m:
-                x0, y0 = xs[k], ys[k]
                 break
         else:
             return t.state                      # the UGV has not moved enough to tell: as it was
-        if self._unsure(c, ts[k], t1) > cfg.unsure_fraction * e:
+        if m.unsure(ts[k], t1) > cfg.unsure_fraction * e:
             return t.state                      # it turned between fixes: no telling where it was meanwhile
-        err = float(np.hypot(x1 - x0 - expected[0], y1 - y0 - expected[1]))
+        j = bisect.bisect_left(ts, t1)          # the track's place at t1, between two frames' points
+        if j >= len(ts) or ts[j] == t1:
+            x1, y1 = t.points[min(j, len(ts) - 1)][1:]
+        else:
+            (ta, xa, ya), (tb, xb, yb) = t.points[j - 1], t.points[j]
+            f = (t1 - ta) / (tb - ta)
+            x1, y1 = xa + f * (xb - xa), ya + f * (yb - ya)
+        err = math.hypot(x1 - t.points[k][1] - expected[0], y1 - t.points[k][2] - expected[1])
         noise = max(cfg.noise_min_px, cfg.noise_m * px_per_m)
         if err <= cfg.agree_fraction * e + noise:
             t.failed = 0
