@@ -8,7 +8,9 @@ UGV's expected and last place (most frames) against the whole frame (acquisition
 Runs the first ``DURATION`` seconds of one seed through the experiment (rendered frames, the deployed
 node classes, one core); wherever the pipeline calls :func:`uvteam.vision.landmarks.label_candidates`,
 the call is timed as made and again on the same frame with no window (the whole frame), in
-alternating order. Prints per-frame medians and the mean over the frames as the pipeline runs them.
+alternating order. Prints per-frame medians and the mean over the frames as the pipeline runs them; and
+(session 43) the choice among the candidates that follows each search (``UavVision._choose``: the prediction's
+gate, what moved, the label tracks of :mod:`uvteam.vision.label_tracks`), timed as run, and the two together.
 """
 
 import json
@@ -45,10 +47,21 @@ def main(path: str, seed: int, duration_s: float) -> dict:
                 whole.append(dt_ms)
         return result
 
+    choose = uav_module.UavVision._choose
+    chose = []
+
+    def timed_choose(self, *args, **kwargs):
+        t0 = time.perf_counter()
+        got = choose(self, *args, **kwargs)
+        chose.append((time.perf_counter() - t0) * 1e3)
+        return got
+
     uav_module.label_candidates = timed
+    uav_module.UavVision._choose = timed_choose
     sc = load_scenario(path)
     SimTeam(sc, seed, "pixels").run(duration_s)
     run_ms, whole_ms, win = np.array(as_run), np.array(whole), np.array(windowed)
+    choose_ms = np.array(chose)
     return {"scenario": sc.name, "seed": seed, "frames": len(run_ms), "acquire_every": ACQUIRE_EVERY,
             "windowed_frames": int(win.sum()),
             "windowed_ms_p50": round(float(np.median(run_ms[win])), 3) if win.any() else None,
@@ -57,6 +70,9 @@ def main(path: str, seed: int, duration_s: float) -> dict:
             "ratio_whole_over_windowed": (round(float(np.median(whole_ms[win]) / np.median(run_ms[win])), 1)
                                           if win.any() else None),
             "mean_ms_per_frame_as_run": round(float(run_ms.mean()), 3),
+            "choose_ms_p50": round(float(np.median(choose_ms)), 3),
+            "choose_ms_p95": round(float(np.percentile(choose_ms, 95)), 3),
+            "search_and_choose_mean_ms_per_frame": round(float(run_ms.mean() + choose_ms.mean()), 3),
             "date": time.strftime("%Y-%m-%d")}
 
 

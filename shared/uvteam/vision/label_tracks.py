@@ -16,6 +16,7 @@ test on one frame tells them apart.
 from __future__ import annotations
 
 import bisect
+import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -58,23 +59,67 @@ class _Track:
 class _Motion:
     """A UGV's velocity samples (in pixels per second, at the times they were measured) as its displacement
     between any two times: linear between samples, held after the newest with ``hold``, unknown (None) before
-    the oldest or across a gap of over ``max_gap_s``. Plain Python: a handful of samples, asked a few dozen
-    times a frame, where NumPy's per-call cost is most of the time."""
+    the oldest or across a gap of over ``max_gap_s``. Plain Python, kept up to date sample by sample: a few dozen
+    samples, asked a few dozen times a frame, where NumPy's per-call cost was most of the time."""
 
-    def __init__(self, samples: list[tuple[float, np.ndarray]], max_gap_s: float) -> None:
-        self.ts = [float(s) for s, _ in samples]
-        self.v = [(float(v[0]), float(v[1])) for _, v in samples]
-        self.cum = [(0.0, 0.0)]
-        self.unsure_cum = [0.0]
-        self.known_from = self.ts[0] if self.ts else math.inf
-        for k in range(1, len(self.ts)):
-            dt = self.ts[k] - self.ts[k - 1]
-            (ax, ay), (bx, by), (cx, cy) = self.v[k - 1], self.v[k], self.cum[-1]
-            self.cum.append((cx + 0.5 * (ax + bx) * dt, cy + 0.5 * (ay + by) * dt))
-            # a step at either end of the interval instead of the line: half the change times the interval
-            self.unsure_cum.append(self.unsure_cum[-1] + 0.5 * math.hypot(bx - ax, by - ay) * dt)
-            if dt > max_gap_s:
-                self.known_from = self.ts[k]
+    def __init__(self, max_gap_s: float) -> None:
+        self.max_gap_s = max_gap_s
+        self.ts: list[float] = []
+        self.v: list[tuple[float, float]] = []
+        # per sample, from the one before: the displacement (the line between them) and, for a step at either end
+        # of the interval instead of the line, half the change times the interval; summed from the oldest sample
+        self._inc_x: list[float] = []
+        self._inc_y: list[float] = []
+        self._inc_u: list[float] = []
+        self._gap: list[bool] = []
+        self.cum: list[tuple[float, float]] = []
+        self.unsure_cum: list[float] = []
+        self.known_from = math.inf
+
+    def _increments(self, k: int) -> None:
+        if k == 0:
+            self._inc_x[0] = self._inc_y[0] = self._inc_u[0] = 0.0
+            self._gap[0] = False
+            return
+        dt = self.ts[k] - self.ts[k - 1]
+        (ax, ay), (bx, by) = self.v[k - 1], self.v[k]
+        self._inc_x[k], self._inc_y[k] = 0.5 * (ax + bx) * dt, 0.5 * (ay + by) * dt
+        self._inc_u[k] = 0.5 * math.hypot(bx - ax, by - ay) * dt
+        self._gap[k] = dt > self.max_gap_s
+
+    def _sums(self) -> None:
+        self.cum = list(zip(itertools.accumulate(self._inc_x), itertools.accumulate(self._inc_y)))
+        self.unsure_cum = list(itertools.accumulate(self._inc_u))
+        last_gap = max((k for k, g in enumerate(self._gap) if g), default=0)
+        self.known_from = self.ts[last_gap] if self.ts else math.inf
+
+    def add(self, stamp_s: float, v_px_s, now_s: float, keep_s: float) -> None:
+        """A sample measured at ``stamp_s`` (replacing one of the same time); samples older than ``keep_s``
+        before ``now_s`` are dropped."""
+        v = (float(v_px_s[0]), float(v_px_s[1]))
+        stamp_s = float(stamp_s)
+        if self.ts and self.ts[-1] < stamp_s:       # the usual case: a newer fix; the oldest dropped as they age
+            n_old = next((k for k, s in enumerate(self.ts) if now_s - s <= keep_s), len(self.ts))
+            if n_old:
+                for lst in (self.ts, self.v, self._inc_x, self._inc_y, self._inc_u, self._gap):
+                    del lst[:n_old]
+                if self.ts:
+                    self._increments(0)
+            self.ts.append(stamp_s)
+            self.v.append(v)
+            for lst in (self._inc_x, self._inc_y, self._inc_u):
+                lst.append(0.0)
+            self._gap.append(False)
+            self._increments(len(self.ts) - 1)
+        else:
+            pairs = sorted([(s, vv) for s, vv in zip(self.ts, self.v) if s != stamp_s and now_s - s <= keep_s]
+                           + [(stamp_s, v)], key=lambda sv: sv[0])
+            self.ts, self.v = [s for s, _ in pairs], [vv for _, vv in pairs]
+            n = len(self.ts)
+            self._inc_x, self._inc_y, self._inc_u, self._gap = [0.0] * n, [0.0] * n, [0.0] * n, [False] * n
+            for k in range(n):
+                self._increments(k)
+        self._sums()
 
     @property
     def newest_s(self) -> float | None:
@@ -109,8 +154,7 @@ class _Motion:
 @dataclass(slots=True)
 class _Color:
     tracks: list[_Track] = field(default_factory=list)
-    velocity: list[tuple[float, np.ndarray]] = field(default_factory=list)   # (when measured, px/s), by time
-    motion: _Motion | None = None                                            # built from ``velocity``
+    motion: _Motion | None = None                  # its UGV's velocity samples
 
 
 class LabelTracks:
@@ -149,11 +193,10 @@ class LabelTracks:
         cfg = self.cfg
         c = self._colors.setdefault(color, _Color())
         if velocity_px_s is not None:
-            vs = stamp_s if velocity_stamp_s is None else velocity_stamp_s
-            c.velocity = [(s, vv) for s, vv in c.velocity if s != vs and stamp_s - s <= cfg.window_s + cfg.confirmed_keep_s]
-            c.velocity.append((vs, np.asarray(velocity_px_s, float)))
-            c.velocity.sort(key=lambda sv: sv[0])
-        c.motion = _Motion(c.velocity, cfg.max_gap_s)
+            if c.motion is None:
+                c.motion = _Motion(cfg.max_gap_s)
+            c.motion.add(stamp_s if velocity_stamp_s is None else velocity_stamp_s, velocity_px_s, stamp_s,
+                         cfg.window_s + cfg.confirmed_keep_s)
         c.tracks = [t for t in c.tracks
                     if stamp_s - t.seen_s <= (cfg.confirmed_keep_s if t.state == CONFIRMED else cfg.keep_s)]
         cands = np.asarray(cands_xy_px, float).reshape(-1, 2)

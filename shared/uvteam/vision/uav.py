@@ -170,13 +170,15 @@ class UavVision:
         this frame, and why is said."""
         chosen: dict[str, tuple[float, float]] = {}
         refused: dict[str, str] = {}
-        by_color: dict[str, list[LabelCandidate]] = {}
-        for c in cands:
-            by_color.setdefault(c.color, []).append(c)
+        all_xy = np.array([[c.x_px, c.y_px] for c in cands], float).reshape(-1, 2)
+        all_moved = self._motion.moved_near(all_xy) if self._motion is not None and len(cands) else None
+        rows: dict[str, list[int]] = {}
+        for k, c in enumerate(cands):
+            rows.setdefault(c.color, []).append(k)
         for color in self.cfg.colors:
-            cs = by_color.get(color, [])
-            xy = np.array([[c.x_px, c.y_px] for c in cs], float).reshape(-1, 2)
-            moved = self._motion.moved_near(xy) if self._motion is not None and len(xy) else None
+            idx = rows.get(color, [])
+            xy = all_xy[idx]
+            moved = all_moved[idx] if all_moved is not None and idx else None
             e = expect.get(color)
             if expect:
                 ok = np.ones(len(xy), bool)
