@@ -4,13 +4,16 @@ A UGV's roof label is looked for by color near where its fix says it is (:mod:`u
 same color on the ground near it (paint, a parked car, a roof) passes that test too when the prediction is loose,
 as it is through the camera's pose alone (several metres at 120 m), and it lies on moving pixels whenever its UGV
 drives past. What a patch cannot do is move as the UGV reports. So each color's candidates are followed from frame to
-frame, carried by the camera's registration (so a track's displacement is over the ground, not the camera's), and a
-track's displacement is compared with its UGV's over the same frames (the UGV's reported velocity in pixels, summed
-frame by frame) over the shortest recent span, within ``window_s``, in which the UGV covered ``check_min_m``: the
-track is *confirmed* when the two agree within half the UGV's displacement plus the label's noise and *refuted* when
-they do not; until the UGV has moved that much it is *pending*. Only a confirmed track's label is a landmark. A still UGV's label is one only if its
-track was confirmed while the UGV moved and followed since: a still label and a patch of paint look alike, and no
-test on one frame tells them apart.
+frame, carried by the camera's registration (so a track's displacement is over the ground, not the camera's), and
+compared with the UGV's own displacement: its receiver's velocity in pixels, each sample at its fix's capture time
+(fixes arrive late, and a UGV turns meanwhile), linear between samples, integrated up to the newest one, over the
+shortest span back in which the UGV covered ``check_min_m``. The track is *confirmed* when the two agree within half
+the UGV's displacement plus the label's noise and *refuted* when they do not (a confirmed one only after
+``refute_after`` failures in a row); a span across a turn between two fixes gives no verdict, nor does a UGV that
+has not moved that far (*pending*). Only a confirmed track's label is a landmark. A still UGV's label is one only if
+its track was confirmed while the UGV moved and followed since: a still label and a patch of paint look alike, and
+no test on one frame tells them apart. Known weakness (docs/results-worlds.md, session 43): at 120 m, 0.8 m is five
+pixels, about what a patch's visible centre moves while its UGV drives over it.
 """
 
 from __future__ import annotations
@@ -186,8 +189,8 @@ class LabelTracks:
                velocity_stamp_s: float | None = None) -> tuple[int | None, str]:
         """This frame's candidates of ``color`` (N, 2), already gated by the prediction, and its UGV's velocity
         in pixels per second (None when not known this frame) as measured at ``velocity_stamp_s`` (its fix's
-        time; this frame's by default: a fix arrives late, and a UGV turns in the meantime). Returns the index of the candidate that is the
-        label (a confirmed track's; of several, the nearest ``prefer_xy_px``), or None and why: ``unconfirmed``
+        time; this frame's by default). Returns the index of the candidate that is the label (a confirmed
+        track's; of several, the nearest ``prefer_xy_px``), or None and why: ``unconfirmed``
         (its track's UGV has not moved enough yet to tell), ``moved_unlike_ugv`` (every track was refuted),
         ``no_track`` (candidates, none on a track, and ``start`` False). New tracks start only when ``start``."""
         cfg = self.cfg
