@@ -267,7 +267,7 @@ class LabelTracks:
             return t.state                      # the UGV has not moved enough to tell: as it was
         if m.unsure(ts[k], t1) > cfg.unsure_fraction * e:
             return t.state                      # it turned between fixes: no telling where it was meanwhile
-        j = bisect.bisect_left(ts, t1)          # the track's place at t1, between two frames' points
+        j = k_end                               # the track's place at t1, between two frames' points
         if j >= len(ts) or ts[j] == t1:
             x1, y1 = t.points[min(j, len(ts) - 1)][1:]
         else:
