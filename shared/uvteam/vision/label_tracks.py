@@ -6,14 +6,16 @@ as it is through the camera's pose alone (several metres at 120 m), and it lies 
 drives past. What a patch cannot do is move as the UGV reports. So each color's candidates are followed from frame to
 frame, carried by the camera's registration (so a track's displacement is over the ground, not the camera's), and
 compared with the UGV's own displacement: its receiver's velocity in pixels, each sample at its fix's capture time
-(fixes arrive late, and a UGV turns meanwhile), linear between samples, integrated up to the newest one, over the
-shortest span back in which the UGV covered ``check_min_m``. The track is *confirmed* when the two agree within half
-the UGV's displacement plus the label's noise and *refuted* when they do not (a confirmed one only after
-``refute_after`` failures in a row); a span across a turn between two fixes gives no verdict, nor does a UGV that
-has not moved that far (*pending*). Only a confirmed track's label is a landmark. A still UGV's label is one only if
-its track was confirmed while the UGV moved and followed since: a still label and a patch of paint look alike, and
-no test on one frame tells them apart. Known weakness (docs/results-worlds.md, session 43): at 120 m, 0.8 m is five
-pixels, about what a patch's visible centre moves while its UGV drives over it.
+(fixes arrive late, and a UGV turns meanwhile), linear between samples, integrated up to the newest one. A check
+passes when the two agree within half the UGV's displacement plus the label's noise; a span across a turn between
+two fixes gives no verdict. Every frame checks the shortest span back in which the UGV covered ``check_min_m``: a
+failure *refutes* a track (a confirmed one only after ``refute_after`` failures in a row). A track is *confirmed*
+only once checks have agreed over ``confirm_min_m`` of the UGV's way with no failure since; until then, or while
+the UGV has not moved that far, it is *pending*. The short span alone is not enough: at 120 m its 0.8 m is five
+pixels, about how far a still patch's visible centre jumps while its UGV drives over it (docs/results-worlds.md,
+sessions 43-44). Only a confirmed track's label is a landmark. A still UGV's label is one only if its track was
+confirmed while the UGV moved and followed since: a still label and a patch of paint look alike, and no test on one
+frame tells them apart.
 """
 
 from __future__ import annotations
@@ -32,8 +34,9 @@ PENDING, CONFIRMED, REFUTED = "pending", "confirmed", "refuted"
 
 @dataclass(frozen=True, slots=True)
 class LabelTrackConfig:
-    window_s: float = 1.5            # a track's displacement is checked over at most this span
+    window_s: float = 4.0            # a track's displacement is checked over at most this span
     check_min_m: float = 0.8         # ... once its UGV has covered this much ground in it
+    confirm_min_m: float = 2.5       # a track is confirmed by checks that agree, none failing, over this much
     agree_fraction: float = 0.5      # the track and its UGV agree within this fraction of the UGV's displacement
     noise_m: float = 0.3             # ... plus this (the label's centroid and the registration's drift)
     noise_min_px: float = 2.0
@@ -53,6 +56,8 @@ class _Track:
     state: str = PENDING
     seen_s: float = 0.0
     failed: int = 0                            # failed checks in a row
+    failed_s: float = -math.inf                # the newest failed check's time
+    agree_from_s: float | None = None          # where the short spans that agreed since then began
 
     @property
     def last_xy(self) -> np.ndarray:
@@ -242,31 +247,69 @@ class LabelTracks:
         return None, "unconfirmed" if (states or start) else "no_track"
 
     def _check(self, c: _Color, t: _Track, px_per_m: float) -> str:
-        """A track's state after its newest point: its displacement against its UGV's up to the newest velocity
-        sample (the track's place then interpolated between frames), over the shortest span back in which the
-        UGV covered ``check_min_m`` and its velocity was known throughout; no verdict when where the UGV went
-        over that span is unsure (it turned between two fixes). A confirmed track is refuted only by
-        ``refute_after`` failed checks in a row (one frame's blob cut by a passing walker is not a lie)."""
+        """A track's state after its newest point, from its displacement against its UGV's up to the newest
+        velocity sample (:meth:`_agrees`). Each frame checks the shortest span back in which the UGV covered
+        ``check_min_m``: a failure refutes a track not yet confirmed and, ``refute_after`` in a row, a confirmed
+        one (one frame's blob cut by a passing walker is not a lie). A track is confirmed only once its checks
+        have agreed over ``confirm_min_m`` of the UGV's way with no failure since: on one span that long, or on
+        the short spans one after another (a UGV too slow to cover it within ``window_s``). Over a short span
+        alone, a still patch the UGV drives over passes: its visible centre moves as the UGV hides and uncovers
+        it, and at 120 m 0.8 m is five pixels (docs/results-worlds.md, sessions 43-44)."""
         cfg = self.cfg
         m = c.motion
         if m is None or m.newest_s is None:
             return t.state
         ts = [p[0] for p in t.points]
         t1 = min(ts[-1], m.newest_s)
+        short = self._agrees(t, m, ts, t1, cfg.check_min_m * px_per_m, px_per_m)
+        if short is False:
+            t.failed += 1
+            t.agree_from_s, t.failed_s = None, ts[-1]
+            return REFUTED if t.state != CONFIRMED or t.failed >= cfg.refute_after else CONFIRMED
+        if short is None:
+            if t.state == CONFIRMED:
+                return CONFIRMED
+        else:
+            t.failed = 0
+            if t.state == CONFIRMED:
+                return CONFIRMED
+        long = self._agrees(t, m, ts, t1, cfg.confirm_min_m * px_per_m, px_per_m)
+        if long is False:
+            t.agree_from_s, t.failed_s = None, ts[-1]
+            return REFUTED
+        if long is not None and long >= t.failed_s:
+            return CONFIRMED
+        if short is None:
+            return t.state
+        t.agree_from_s = short if t.agree_from_s is None else min(t.agree_from_s, short)
+        run = m.between(t.agree_from_s, t1)
+        if run is None:                         # the UGV's velocity not known back to then: the run starts anew
+            t.agree_from_s, run = short, m.between(short, t1)
+        return CONFIRMED if run is not None and math.hypot(*run) >= cfg.confirm_min_m * px_per_m else PENDING
+
+    def _agrees(self, t: _Track, m: _Motion, ts: list[float], t1: float, min_px: float,
+                px_per_m: float) -> float | bool | None:
+        """Whether the track moved as its UGV over the shortest span back to ``t1`` in which the UGV covered
+        ``min_px``: the span's start time when within ``agree_fraction`` of the UGV's displacement plus the
+        label's noise, False when not, None for no verdict (the UGV not that far within the track's points, its
+        velocity unknown over the span, or where it went unsure: it turned between two fixes)."""
+        cfg = self.cfg
         d1 = m.at(t1)
+        if d1 is None:
+            return None
         k_end = bisect.bisect_left(ts, t1)       # the points before t1
         for k in range(k_end - 1, -1, -1):
             d0 = m.at(ts[k])
-            if d0 is None or d1 is None:
-                return t.state                  # the UGV's velocity is not known over any longer span either
+            if d0 is None:
+                return None                     # the UGV's velocity is not known over any longer span either
             expected = (d1[0] - d0[0], d1[1] - d0[1])
             e = math.hypot(*expected)
-            if e >= cfg.check_min_m * px_per_m:
+            if e >= min_px:
                 break
         else:
-            return t.state                      # the UGV has not moved enough to tell: as it was
+            return None
         if m.unsure(ts[k], t1) > cfg.unsure_fraction * e:
-            return t.state                      # it turned between fixes: no telling where it was meanwhile
+            return None
         j = k_end                               # the track's place at t1, between two frames' points
         if j >= len(ts) or ts[j] == t1:
             x1, y1 = t.points[min(j, len(ts) - 1)][1:]
@@ -276,8 +319,4 @@ class LabelTracks:
             x1, y1 = xa + f * (xb - xa), ya + f * (yb - ya)
         err = math.hypot(x1 - t.points[k][1] - expected[0], y1 - t.points[k][2] - expected[1])
         noise = max(cfg.noise_min_px, cfg.noise_m * px_per_m)
-        if err <= cfg.agree_fraction * e + noise:
-            t.failed = 0
-            return CONFIRMED
-        t.failed += 1
-        return REFUTED if t.state != CONFIRMED or t.failed >= cfg.refute_after else CONFIRMED
+        return ts[k] if err <= cfg.agree_fraction * e + noise else False
