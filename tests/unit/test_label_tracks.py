@@ -133,3 +133,15 @@ def test_a_still_patch_whose_centre_jumps_as_a_ugv_drives_over_it_is_never_taken
         taken.append(j is not None)
     assert not any(taken)
     assert [REFUTED] in states and [PENDING] in states[states.index([REFUTED]):]
+
+
+def test_a_ugv_too_slow_to_cover_the_confirming_span_in_the_window_is_confirmed_check_by_check():
+    # 0.55 m/s: 2.2 m in the 4 s window, never one 2.5 m span; its 0.8 m checks, agreeing one after another,
+    # cover 2.5 m at 4.55 s, and the label is taken from the next frame on
+    tracks = LabelTracks()
+    taken = []
+    for k in range(70):
+        t = 0.1 * k
+        j, _ = tracks.update("red", t, np.array([[300.0 + 5.5 * t, 200.0]]), np.array([5.5, 0.0]), PX_PER_M)
+        taken.append(j is not None)
+    assert not any(taken[:46]) and all(taken[46:])
