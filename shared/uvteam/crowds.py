@@ -146,7 +146,11 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    ``smooth_accel_m_s2`` per axis (1 sigma), and an estimate more than ``smooth_gate`` standard deviations
    from where the filter has it, one whose moving pixels changed by more than ``smooth_area_ratio`` (walkers
    joined or left its blob), or one after a frame gap, starts it afresh (a crowd held by its walk, step 6,
-   is reported as step 6 has it and starts it afresh when seen again). Its 95 % radius holds what is left of
+   is reported as step 6 has it and starts it afresh when seen again); but an estimate off the gate with its
+   moving pixels unchanged is first skipped for ``smooth_skip_frames`` frames in a row, the crowd reported where
+   the filter has it: a frame's transform can jump where its crowd cannot (real-alt120-lm6-gnss1 seed 6 at
+   39.0 s, a fit on four landmarks 3.3 m off the frames before and after; afresh there, the filter took a second
+   to come back, 3.65 m off at worst). Its 95 % radius holds what is left of
    the declared frame noise after the filter in place of that noise. Landmarks with consumer GNSS jitter the
    transform from fix to fix, so a crowd's estimates scatter by a metre about where it walks:
    field-alt100-lm6's tuning seeds 1-3 (open loop, `docs/grouping_replay.py`) 1.199 -> 0.879 m of mean error
@@ -203,6 +207,7 @@ class GroupingConfig:
     smooth_gate: float = 4.0      # ... an estimate this many standard deviations from the filter's starts it afresh
     smooth_min_sigma_m: float = 0.05  # ... and its estimates' noise from frame to frame is taken as at least this
     smooth_area_ratio: float = 1.3  # ... and so does one whose moving pixels changed by more than this factor
+    smooth_skip_frames: int = 1   # ... but an estimate off the gate is first skipped this many frames in a row
 
     def __post_init__(self) -> None:
         for name in ("near_m", "window_s", "min_span_s", "max_rel_speed_m_s"):
@@ -223,9 +228,9 @@ class GroupingConfig:
         if not (self.steady_per_scatter >= 0.0 and self.steady_min_m >= 0.0):
             raise ValueError("steady_per_scatter and steady_min_m must be >= 0")
         if not (self.smooth_accel_m_s2 >= 0.0 and self.smooth_gate > 0.0 and self.smooth_min_sigma_m > 0.0
-                and self.smooth_area_ratio >= 1.0):
+                and self.smooth_area_ratio >= 1.0 and self.smooth_skip_frames >= 0):
             raise ValueError("smooth_accel_m_s2 must be >= 0, smooth_gate and smooth_min_sigma_m > 0, "
-                             "smooth_area_ratio >= 1")
+                             "smooth_area_ratio >= 1, smooth_skip_frames >= 0")
         if not 0.0 <= self.late_share <= 1.0:
             raise ValueError(f"late_share must be in [0, 1], got {self.late_share}")
         if not (self.apart_m >= self.near_m and self.apart_frames >= 1 and self.rejoin_s >= 0.0):
@@ -847,6 +852,7 @@ class Smoothed:
     x: np.ndarray                      # (4,)
     P: np.ndarray                      # (4, 4)
     area_px: float                     # the moving pixels of the estimate it last took
+    skipped: int = 0                   # estimates off its gate skipped in a row, up to this frame
 
 
 SMOOTH_GAP_S = 0.5          # a crowd unseen (or unreported) this long starts its filter afresh
@@ -886,7 +892,9 @@ def _filter_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_
     axis) with its estimate at ``sigma_m`` per axis; afresh at the estimate, with its track's velocity, when
     there is none, after a gap, when the estimate's moving pixels changed by more than ``smooth_area_ratio``
     (walkers that joined or left its blob move its centre: field-alt100-lm6 seed 9 at 47.2-47.8 s, the second
-    crowd leaving, followed 1-2 m behind), or when the estimate lies ``smooth_gate`` standard deviations off."""
+    crowd leaving, followed 1-2 m behind), or when the estimate lies ``smooth_gate`` standard deviations off
+    for more than ``smooth_skip_frames`` frames in a row (before that, the estimate is skipped: predicted, not
+    updated)."""
     z = np.array([r.estimate.east_m, r.estimate.north_m])
     R = sigma_m ** 2 * np.eye(2)
     area = r.estimate.area_px
@@ -902,6 +910,8 @@ def _filter_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_
         if float(y @ np.linalg.solve(S, y)) <= cfg.smooth_gate ** 2:
             K = np.linalg.solve(S, P[:2, :]).T     # P H^T S^-1, H picking the position
             return Smoothed(stamp_s, x + K @ y, P - K @ P[:2, :], area)
+        if prev.skipped < cfg.smooth_skip_frames:  # one frame's jump: the transform's, not the crowd's
+            return Smoothed(stamp_s, x, P, prev.area_px, prev.skipped + 1)
     v = (r.track.v_east_m_s, r.track.v_north_m_s)
     return Smoothed(stamp_s, np.array([z[0], z[1], v[0], v[1]]),
                     np.diag([sigma_m ** 2, sigma_m ** 2, SMOOTH_START_SIGMA_V_M_S ** 2, SMOOTH_START_SIGMA_V_M_S ** 2]),

@@ -909,19 +909,22 @@ def test_a_blob_that_held_another_crowd_keeps_its_reach_while_it_has_both_crowds
         assert a.estimate.radius95_m == pytest.approx(own.estimate.radius95_m + reach, abs=0.01), seconds
 
 
-def walk_seen_through(noise_m, cfg, seconds=20.0, seed=0, jump_at_s=None, jump_m=0.0, area_after=20.0):
+def walk_seen_through(noise_m, cfg, seconds=20.0, seed=0, jump_at_s=None, jump_m=0.0, area_after=20.0,
+                      glitch=False):
     """A crowd walking at (1.2, 0.4) m/s, each frame's estimate off by white noise of ``noise_m`` per axis (the
     transform jittered from fix to fix), declared as the estimate's frame noise; from ``jump_at_s`` on, placed
-    ``jump_m`` further east with ``area_after`` moving pixels (20 before). Per frame after the first 2 s: (its
-    true place, the estimate, the report)."""
+    ``jump_m`` further east with ``area_after`` moving pixels (20 before); with ``glitch``, only the estimate of
+    the frame at ``jump_at_s`` is (the transform's jump, not the crowd's: the truth stays on its walk). Per frame
+    after the first 2 s: (its true place, the estimate, the report)."""
     rng = np.random.default_rng(seed)
     state, rows = GroupingState(), []
     r95 = 2.4477 * noise_m
     for f in range(int(seconds * 10)):
         t = f / 10.0
-        true = np.array([1.2 * t + (jump_m if jump_at_s is not None and t >= jump_at_s else 0.0), 0.4 * t])
-        seen = true + rng.normal(0.0, noise_m, 2)
-        area = area_after if jump_at_s is not None and t >= jump_at_s else 20.0
+        jumped = jump_at_s is not None and (abs(t - jump_at_s) < 1e-9 if glitch else t >= jump_at_s)
+        true = np.array([1.2 * t + (jump_m if jumped and not glitch else 0.0), 0.4 * t])
+        seen = true + rng.normal(0.0, noise_m, 2) + (jump_m if jumped and glitch else 0.0) * np.array([1.0, 0.0])
+        area = area_after if jumped else 20.0
         est = replace(estimate(*seen, area=area, r95=r95), frame_radius95_m=r95)
         state, out = report_crowds(state, (est,), T0 + t, cfg)
         if t >= 2.0 and out:
@@ -944,14 +947,32 @@ def test_a_crowd_whose_estimates_jitter_is_reported_nearer_where_it_walks(seed):
     assert all(r.estimate.east_m == s[0] and r.estimate.north_m == s[1] for _, s, r in off if r.unseen_s == 0.0)
 
 
-def test_a_crowd_placed_afresh_is_reported_where_it_is_at_once():
-    # estimates 0.1 m off, then 3 m further east from 8 s on (the same track): far past what the filter expects,
-    # so it starts afresh at the new place, not drifting there over seconds
+def test_a_crowd_placed_afresh_is_reported_where_it_is_from_the_second_frame():
+    # estimates 0.1 m off, then 3 m further east from 8 s on (the same track): far past what the filter expects.
+    # The first such estimate is skipped (it could be one frame's transform, below), the second starts the filter
+    # afresh at the new place, not drifting there over seconds
     rows = walk_seen_through(0.1, GroupingConfig(), jump_at_s=8.0, jump_m=3.0)
-    after = [(s, r) for t, s, r in rows if t[0] >= 1.2 * 8.0 + 3.0 - 1e-9]
-    s, r = after[0]
+    after = [(t, s, r) for t, s, r in rows if t[0] >= 1.2 * 8.0 + 3.0 - 1e-9]
+    t, s, r = after[0]
+    assert np.hypot(r.estimate.east_m - s[0], r.estimate.north_m - s[1]) > 2.5
+    assert np.hypot(r.estimate.east_m - t[0] + 3.0, r.estimate.north_m - t[1]) < 0.3    # where it walked
+    _, s, r = after[1]
     assert (r.estimate.east_m, r.estimate.north_m) == pytest.approx(tuple(s), abs=1e-9)
-    assert all(np.hypot(r.estimate.east_m - s[0], r.estimate.north_m - s[1]) < 0.5 for s, r in after)
+    assert all(np.hypot(r.estimate.east_m - s[0], r.estimate.north_m - s[1]) < 0.5 for _, s, r in after[1:])
+    now = walk_seen_through(0.1, GroupingConfig(smooth_skip_frames=0), jump_at_s=8.0, jump_m=3.0)
+    _, s, r = next((t, s, r) for t, s, r in now if t[0] >= 1.2 * 8.0 + 3.0 - 1e-9)
+    assert (r.estimate.east_m, r.estimate.north_m) == pytest.approx(tuple(s), abs=1e-9)
+
+
+def test_one_frames_jump_of_the_transform_is_not_reported():
+    # real-alt120-lm6-gnss1 seed 6 at 39.0 s (docs/results-worlds.md, session 44): one frame fitted on four
+    # landmarks put the crowd 3.3 m from the frames before and after; the filter started afresh there and took a
+    # second to come back (3.65, 2.21, 1.91 ... m off). Skipped, the frame is reported where the filter has it
+    def worst(cfg):
+        rows = walk_seen_through(0.1, cfg, jump_at_s=8.0, jump_m=3.0, glitch=True)
+        return max(np.hypot(r.estimate.east_m - t[0], r.estimate.north_m - t[1]) for t, _, r in rows)
+    assert worst(GroupingConfig()) < 0.4
+    assert worst(GroupingConfig(smooth_skip_frames=0)) > 2.5
 
 
 def test_a_crowd_whose_blob_took_walkers_in_is_reported_where_they_all_are_at_once():
