@@ -266,13 +266,10 @@ class LabelTracks:
             t.failed += 1
             t.agree_from_s, t.failed_s = None, ts[-1]
             return REFUTED if t.state != CONFIRMED or t.failed >= cfg.refute_after else CONFIRMED
-        if short is None:
-            if t.state == CONFIRMED:
-                return CONFIRMED
-        else:
+        if short is not None:
             t.failed = 0
-            if t.state == CONFIRMED:
-                return CONFIRMED
+        if t.state == CONFIRMED:
+            return CONFIRMED
         long = self._agrees(t, m, ts, t1, cfg.confirm_min_m * px_per_m, px_per_m)
         if long is False:
             t.agree_from_s, t.failed_s = None, ts[-1]
