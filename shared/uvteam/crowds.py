@@ -70,7 +70,12 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    other to a new one, and that part is the crowd's from its first frame (a young part joins a crowd;
    alone it is none); a crowd is the area-weighted mean of its parts (the detector's moving pixels),
    its footprint the box round theirs, its 95 % radius the largest of theirs, reported under its
-   longest-seen part's track (id, velocity);
+   longest-seen part's track (id, velocity). A crowd whose blob is not known yet (its first ``confirm_hits``
+   frames reported, :func:`_unknown_blob`) has no footprint to go by: parts seen once less than
+   ``confirm_hits`` whose nearest confirmed part is one of it, within ``near_m``, are its (:func:`_starting_parts`;
+   real-alt60-lm6 seed 57 at 0.3 s: a loose crowd first seen in two parts 6.4 m apart was reported 3.6 m off,
+   at the part confirmed first, and its other part, which then took its whole blob, came out as a crowd of its
+   own for three frames at 1.1-1.3 s); a part seen once joins nothing (a blob of one frame beside a crowd);
 6. a crowd once reported that has been seen for ``coast_min_seen_s`` (a walk fitted over less is no walk
    to hold it by) and goes unseen (its walkers on ground of their own shade, under a canopy, a vehicle's
    blob over them) is still reported for ``coast_s`` where its walk takes it, flagged with how long it
@@ -799,6 +804,12 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     labels, apart, streak, drifted = crowd_groups([trk[k] for k in parts], stamp_s, cfg, boxes_en, areas,
                                                   frozenset(apart), state.streak, frozenset(drifted), state.joined,
                                                   crowds)
+    # the parts a new crowd showed in from its first frames, in the group of the nearest confirmed part
+    of_part = dict(zip(parts, labels))
+    for k, j in _starting_parts(state, en, trk, confirmed, frozenset(young), cfg).items():
+        if all(_unknown_blob(state, trk[m], cfg) for m in confirmed if of_part[m] == of_part[j]):
+            parts.append(k)
+            labels.append(of_part[j])
     joined = _joined_after(state.joined, [trk[k].track_id for k in parts], labels, live)
     for k, g in zip(parts, labels):
         groups.setdefault(g, []).append(k)
@@ -1016,6 +1027,36 @@ def _young_parts(state: GroupingState, estimates: tuple[CrowdEstimate, ...], con
                 young[k] = ls.crowd.crowd_id
                 have += estimates[k].area_px
     return young
+
+
+def _unknown_blob(state: GroupingState, track: CrowdTrack, cfg: GroupingConfig) -> bool:
+    """Whether a confirmed part is of a crowd with no blob known yet: one its own track was seen in fewer than
+    ``2 confirm_hits - 1`` frames (reported in fewer than ``confirm_hits``), a part of no other crowd."""
+    return (track.hits < 2 * cfg.confirm_hits - 1
+            and state.crowd_of.get(track.track_id, track.track_id) == track.track_id)
+
+
+def _starting_parts(state: GroupingState, en: np.ndarray, trk: list[CrowdTrack], confirmed: list[int],
+                    taken: frozenset[int], cfg: GroupingConfig) -> dict[int, int]:
+    """Step 5's other exception: the estimates (``en``: their east/north m) of tracks seen once less than
+    ``confirm_hits`` times, never parts of a crowd (nor in ``taken``), whose nearest confirmed part lies within
+    ``near_m`` and has no blob known yet (:func:`_unknown_blob`), each with that part (estimate indices);
+    :func:`report_crowds` takes them into that part's crowd when no part of it has a blob known. A crowd whose
+    blob shows in two parts from its first frames has no footprint yet that tells its parts from a blob beside
+    it; reported from the part confirmed first, it is that part's distance off."""
+    if not confirmed:
+        return {}
+    anchors = np.array(confirmed)
+    out = {}
+    for k in range(len(trk)):
+        if (not cfg.confirm_hits - 1 <= trk[k].hits < cfg.confirm_hits or k in taken
+                or trk[k].track_id in state.crowd_of):
+            continue
+        d = np.hypot(*(en[anchors] - en[k]).T)
+        j = int(anchors[int(np.argmin(d))])
+        if d.min() < cfg.near_m and _unknown_blob(state, trk[j], cfg):
+            out[k] = j
+    return out
 
 
 def _merged(state: GroupingState, live: Mapping[int, CrowdTrack], trk: list[CrowdTrack], boxes_en: np.ndarray,
