@@ -1044,11 +1044,11 @@ def _waits(state: GroupingState, en: np.ndarray, trk: list[CrowdTrack], members:
            once: list[int], cfg: GroupingConfig) -> bool:
     """Whether a crowd about to be reported for the first time (its parts, ``members``, and ``lead`` as
     estimate indices; ``en``: the estimates' east/north m) waits a frame: its lead track was seen
-    ``confirm_hits`` times, just now, none of its parts is of a crowd, and a blob seen fewer than ``confirm_hits -
-    1`` times (``once``: in no group) lies within ``near_m`` of a part of it. Seen again, that blob is a part of it (:func:`_starting_parts`); gone, it was
-    not. paper-fig7-alt50 and -alt200 seed 4 at 0.3 s: a crowd's second part, first seen in the frame the crowd
-    was, 7.7 m from the first; the crowd reported from the first part 1.61 / 1.66 m off, 0.17 / 0.37 m the frame
-    after."""
+    ``confirm_hits`` times, just now, none of its parts is of a crowd, and a blob seen fewer than
+    ``confirm_hits - 1`` times (``once``: in no group) lies within ``near_m`` of a part of it. Seen again,
+    that blob is a part of it (:func:`_starting_parts`); gone, it was not. paper-fig7-alt50 and -alt200
+    seed 4 at 0.3 s: a crowd's second part, first seen in the frame the crowd was, 7.7 m from the first;
+    the crowd reported from the first part 1.61 / 1.66 m off, 0.17 / 0.37 m the frame after."""
     if trk[lead].hits != cfg.confirm_hits or not once or any(trk[k].track_id in state.crowd_of for k in members):
         return False
     d = np.hypot(*(en[members][:, None] - en[once][None]).transpose(2, 0, 1))
