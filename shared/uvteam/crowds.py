@@ -808,7 +808,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     # the parts a new crowd showed in from its first frames, in the group of the nearest confirmed part
     of_part = dict(zip(parts, labels))
     for k, j in _starting_parts(state, en, trk, confirmed, frozenset(young), cfg).items():
-        if all(_unknown_blob(state, trk[m], cfg) for m in confirmed if of_part[m] == of_part[j]):
+        if all(_unknown_blob(state, trk[m], cfg) for m in confirmed if of_part[m] == of_part[j]):   # j's included
             parts.append(k)
             labels.append(of_part[j])
     joined = _joined_after(state.joined, [trk[k].track_id for k in parts], labels, live)
@@ -1059,8 +1059,8 @@ def _starting_parts(state: GroupingState, en: np.ndarray, trk: list[CrowdTrack],
                     taken: frozenset[int], cfg: GroupingConfig) -> dict[int, int]:
     """Step 5's other exception: the estimates (``en``: their east/north m) of tracks seen once less than
     ``confirm_hits`` times, never parts of a crowd (nor in ``taken``), whose nearest confirmed part lies within
-    ``near_m`` and has no blob known yet (:func:`_unknown_blob`), each with that part (estimate indices);
-    :func:`report_crowds` takes them into that part's crowd when no part of it has a blob known. A crowd whose
+    ``near_m``, each with that part (estimate indices); :func:`report_crowds` takes them into that part's crowd
+    when no confirmed part of it, that one included, has a blob known (:func:`_unknown_blob`). A crowd whose
     blob shows in two parts from its first frames has no footprint yet that tells its parts from a blob beside
     it; reported from the part confirmed first, it is that part's distance off."""
     if not confirmed:
@@ -1073,7 +1073,7 @@ def _starting_parts(state: GroupingState, en: np.ndarray, trk: list[CrowdTrack],
             continue
         d = np.hypot(*(en[anchors] - en[k]).T)
         j = int(anchors[int(np.argmin(d))])
-        if d.min() < cfg.near_m and _unknown_blob(state, trk[j], cfg):
+        if d.min() < cfg.near_m:
             out[k] = j
     return out
 
