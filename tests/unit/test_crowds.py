@@ -413,6 +413,29 @@ def test_a_slow_wander_is_held_by_the_steady_part_and_widens_it_only_beyond(wand
         assert np.median(r) == pytest.approx(2.4477 * s, rel=0.1) and np.median(r) > wander_m
 
 
+def test_the_landmarks_noise_is_not_taken_for_the_blobs_scatter():
+    # the landmarks' GNSS noise moves the estimates by 0.6 m per axis from frame to frame (declared per frame);
+    # the blob keeps a 0.25 m offset and nothing else. What the estimates scatter by is the landmarks', not the
+    # blob's: the declared steady part (0.72 m per axis) is narrowed as for a blob holding steady, to the
+    # floor, and the radius still holds the crowd (before: the whole declared part, a radius 1.4 times wider)
+    rng = np.random.default_rng(17)
+    declared, frame = 2.4477 * 0.72, 2.4477 * 0.6
+    state, inside, r = GroupingState(), [], []
+    for f in range(300):
+        t = f / 10
+        true = np.array([1.4 * t, 0.5 * t])
+        est = true + 0.25 / np.sqrt(2) + rng.normal(0, 0.6, 2)
+        c = replace(estimate(*est, area=20.0, r95=math.hypot(declared, frame)), steady_radius95_m=declared,
+                    frame_radius95_m=frame)
+        state, out = report_crowds(state, (c,), T0 + t, STEPS)
+        if out and f >= 100:
+            c = out[0].estimate
+            inside.append(np.hypot(c.east_m - true[0], c.north_m - true[1]) <= c.radius95_m)
+            r.append(c.radius95_m)
+    assert np.median(r) == pytest.approx(math.hypot(2.4477 * GroupingConfig().steady_min_m, frame), rel=0.05)
+    assert np.mean(inside) >= 0.95
+
+
 # --- step 6: a crowd gone unseen -------------------------------------------------------------------------
 
 def walk_with_gap(gap=(4.0, 7.0), seconds=10.0, v=(1.4, 0.5), jitter_m=0.3, seed=0, cfg=STEPS,
