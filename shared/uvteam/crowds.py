@@ -13,11 +13,11 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    frames. Both come from the same walkers lost and found against the ground, so a blob that holds
    steady keeps a small offset too: the declared steady part is narrowed to ``steady_per_scatter``
    times the blob's scatter (at least ``steady_min_m``, never more than declared). The blob's scatter is
-   the estimates' without the landmarks' noise, as declared in the estimate's frame noise and no more
-   than the scatter within ``scatter_fast_s``: consumer GNSS on the UGVs (1 m per axis) scattered every
-   crowd's estimates by 0.6 m per axis, and was taken for a blob that does not hold steady (the
-   declared steady part kept whole: the -gnss1 worlds' radius held the truth in 0.989 and 1.000 of frames
-   on their tuning seeds, now 0.974 and 0.983). The radius is widened by
+   the estimates' without what the noise the landmarks' fixes declare makes (``fix_radius95_m``), no more
+   than the scatter within ``scatter_fast_s``: consumer GNSS on the UGVs (1 m per axis, white from fix to
+   fix) scattered every crowd's estimates by 0.6 m per axis, which was taken for a blob that does not
+   hold steady, so the declared steady part was kept whole and the -gnss1 worlds' radius held the truth
+   in 0.98-1.00 of frames. The radius is widened by
    as much as the scatter exceeds what it already holds, each part against its own kind: the scatter
    within ``scatter_fast_s`` (about a line fitted within each such span) is noise from frame to frame,
    against the declared frame noise; the rest is the blob's offset changing over seconds, which the
@@ -516,7 +516,7 @@ def _with_scatter(c: CrowdEstimate, track: CrowdTrack, fast: float | None, cfg: 
     frame2 = c.frame_radius95_m ** 2
     if c.steady_radius95_m > 0:
         fast = s if fast is None else min(fast, s)
-        landmarks = min(fast, c.frame_radius95_m / R95_PER_SIGMA)   # their noise, declared and seen as fast
+        landmarks = min(fast, c.fix_radius95_m / R95_PER_SIGMA)   # the fixes' noise, declared and seen as fast
         own = R95_PER_SIGMA * steady_sigma_m(float(np.sqrt(s * s - landmarks * landmarks)),
                                              c.steady_radius95_m / R95_PER_SIGMA, cfg)
         r2 = max(r2 - c.steady_radius95_m ** 2 + own ** 2, frame2)

@@ -414,7 +414,7 @@ def test_a_slow_wander_is_held_by_the_steady_part_and_widens_it_only_beyond(wand
 
 
 def test_the_landmarks_noise_is_not_taken_for_the_blobs_scatter():
-    # the landmarks' GNSS noise moves the estimates by 0.6 m per axis from frame to frame (declared per frame);
+    # the landmarks' GNSS noise moves the estimates by 0.6 m per axis from frame to frame (as their fixes declare);
     # the blob keeps a 0.25 m offset and nothing else. What the estimates scatter by is the landmarks', not the
     # blob's: the declared steady part (0.72 m per axis) is narrowed as for a blob holding steady, to the
     # floor, and the radius still holds the crowd (before: the whole declared part, a radius 1.4 times wider)
@@ -426,7 +426,7 @@ def test_the_landmarks_noise_is_not_taken_for_the_blobs_scatter():
         true = np.array([1.4 * t, 0.5 * t])
         est = true + 0.25 / np.sqrt(2) + rng.normal(0, 0.6, 2)
         c = replace(estimate(*est, area=20.0, r95=math.hypot(declared, frame)), steady_radius95_m=declared,
-                    frame_radius95_m=frame)
+                    frame_radius95_m=frame, fix_radius95_m=frame)
         state, out = report_crowds(state, (c,), T0 + t, STEPS)
         if out and f >= 100:
             c = out[0].estimate

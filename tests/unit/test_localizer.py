@@ -259,6 +259,24 @@ def test_landmarks_noisier_than_declared_widen_the_radius_they_cause(learn):
         assert state.landmark_chi2 == 1.0 and np.mean(inside) < 0.6
 
 
+@pytest.mark.parametrize("fix_sigma_m", [0.0, 1.0])
+def test_a_crowd_s_radius_says_how_much_of_it_the_fixes_noise_makes(fix_sigma_m):
+    # the share of a crowd's 95 % radius that the UGVs' declared GNSS noise makes (the crowd grouping takes
+    # it out of the scatter it judges the blob by): none worth the name with exact fixes (their 2 cm floor),
+    # nearly all of the frame-to-frame part with 1 m fixes and 0.5 px labels
+    tracks = {u: track_at(p, sigma=fix_sigma_m) for u, p in UGVS.items()}
+    o = observation(1.0)
+    o = FrameObservation(o.stamp_s, o.landmarks, o.blobs, 0.5, 1.0, 1.5, px_per_m=CAM.focal_px / POSE.up_m,
+                         sigma_crowd_blob_frame_px=0.0)
+    _, res = localize_step(LocalizerState(), o, tracks, cfg())
+    (c,) = res.crowds
+    assert 0.0 <= c.fix_radius95_m <= c.frame_radius95_m < c.radius95_m
+    if fix_sigma_m == 0.0:
+        assert c.fix_radius95_m < 0.05 * c.frame_radius95_m + 0.05
+    else:
+        assert c.fix_radius95_m > 0.9 * c.frame_radius95_m and c.fix_radius95_m > 1.0
+
+
 def red_beside_its_label(speed_m_s: float, shift_px, sigma_m: float = 0.0):
     """One step in which red, its receiver reporting ``speed_m_s`` east and a fix of ``sigma_m``, has its
     label found where its fix says and its motion blob ``shift_px`` off: (the step's result, the blobs)."""
