@@ -13,8 +13,8 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    frames. Both come from the same walkers lost and found against the ground, so a blob that holds
    steady keeps a small offset too: the declared steady part is narrowed to ``steady_per_scatter``
    times the blob's scatter (at least ``steady_min_m``, never more than declared). The blob's scatter is
-   the estimates' without what the noise the landmarks' fixes declare makes (``fix_radius95_m``), no more
-   than the scatter within ``scatter_fast_s``: consumer GNSS on the UGVs (1 m per axis, white from fix to
+   the estimates' less the part that the noise the landmarks' fixes declare makes (``fix_radius95_m``; at
+   most the scatter within ``scatter_fast_s``): consumer GNSS on the UGVs (1 m per axis, white from fix to
    fix) scattered every crowd's estimates by 0.6 m per axis, which was taken for a blob that does not
    hold steady, so the declared steady part was kept whole and the -gnss1 worlds' radius held the truth
    in 0.98-1.00 of frames. The radius is widened by

@@ -580,8 +580,8 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
     """Phase 5b: the target blobs (indices) on the ground with their 95 % radii and footprints; the
     landmarks' noise (pixel and GNSS) times ``landmark_scale``. Each radius also says how much of it is
     noise that changes from frame to frame (the landmarks', and ``sigma_target_frame_px`` of the
-    target's; None: all of it). A point beyond the horizon of a bad transform is dropped: never a NaN
-    on the map."""
+    target's; None: all of it), and of that how much the noise the fixes declare makes. A point beyond
+    the horizon of a bad transform is dropped: never a NaN on the map."""
     if not len(targets):
         return ()
     centre_px = blobs.xy_px[targets]
