@@ -13,7 +13,7 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    frames. Both come from the same walkers lost and found against the ground, so a blob that holds
    steady keeps a small offset too: the declared steady part is narrowed to ``steady_per_scatter``
    times the blob's scatter (at least ``steady_min_m``, never more than declared). The blob's scatter is
-   the estimates' less the part that the noise the landmarks' fixes declare makes (``fix_radius95_m``; at
+   the estimates' less the part that the noise the landmarks' fixes declare makes (``fix_sigma_m``; at
    most the scatter within ``scatter_fast_s``): consumer GNSS on the UGVs (1 m per axis, white from fix to
    fix) scattered every crowd's estimates by 0.6 m per axis, which was taken for a blob that does not
    hold steady, so the declared steady part was kept whole and the -gnss1 worlds' radius held the truth
@@ -516,7 +516,7 @@ def _with_scatter(c: CrowdEstimate, track: CrowdTrack, fast: float | None, cfg: 
     frame2 = c.frame_radius95_m ** 2
     if c.steady_radius95_m > 0:
         fast = s if fast is None else min(fast, s)
-        landmarks = min(fast, c.fix_radius95_m / R95_PER_SIGMA)   # the fixes' noise, declared and seen as fast
+        landmarks = min(fast, c.fix_sigma_m)   # the fixes' noise, declared and seen as fast
         own = R95_PER_SIGMA * steady_sigma_m(float(np.sqrt(s * s - landmarks * landmarks)),
                                              c.steady_radius95_m / R95_PER_SIGMA, cfg)
         r2 = max(r2 - c.steady_radius95_m ** 2 + own ** 2, frame2)

@@ -226,10 +226,11 @@ class Homography:
         en, (cov_m,) = self.map_points_with_covs(xy_px, (sigma_target_px,), sigma_landmark_px, sigma_landmark_m)
         return en, cov_m
 
-    def map_points_with_covs(self, xy_px, sigmas_target_px, sigma_landmark_px,
-                             sigma_landmark_m) -> tuple[np.ndarray, list[np.ndarray]]:
+    def map_points_with_covs(self, xy_px, sigmas_target_px, sigma_landmark_px, sigma_landmark_m,
+                             fixes_alone: bool = False) -> tuple[np.ndarray, list[np.ndarray]]:
         """As :meth:`map_points_with_cov`, with one (N, 2, 2) covariance per target sigma in
-        ``sigmas_target_px``, the landmarks' part propagated once.
+        ``sigmas_target_px``, the landmarks' part propagated once; with ``fixes_alone`` one more, last: the
+        part the landmarks' ground noise (``sigma_landmark_m``) makes alone.
 
         In normalised coordinates a target's pixel is a = (u, v, 1), q = Hn a, its ground point
         (X, Y) = (q1, q2) / w with w = q3, and to first order it moves by G (dHn a + Hn[:, :2] da) / w with
@@ -254,13 +255,21 @@ class Homography:
         w = q[:, 2:]
         XY = q[:, :2] / w
         scale = ((w * self._sg) ** 2)[:, :, None]
-        Q = ((a[:, :, None] * a[:, None, :]).reshape(n, 9) @ Cq).reshape(n, 3, 3)
-        GQ = Q[:, :2] - XY[:, :, None] * Q[:, 2:]                         # G Q
-        covs = [(GQ[:, :, :2] - GQ[:, :, 2:] * XY[:, None, :]) / scale]  # G Q G^T / w^2, m^2
+        aa = (a[:, :, None] * a[:, None, :]).reshape(n, 9)
+
+        def ground_cov(Cq_: np.ndarray) -> np.ndarray:                    # G Q G^T / w^2, m^2
+            Q = (aa @ Cq_).reshape(n, 3, 3)
+            GQ = Q[:, :2] - XY[:, :, None] * Q[:, 2:]                     # G Q
+            return (GQ[:, :, :2] - GQ[:, :, 2:] * XY[:, None, :]) / scale
+
+        covs = [ground_cov(Cq)]
         if len(sigmas_target_px) > 1:
             GK = K[None, :2] - XY[:, :, None] * K[None, 2:]               # G K
             per_px2 = (GK[:, :, :2] - GK[:, :, 2:] * XY[:, None, :]) / scale
             covs += [covs[0] + (float(s) * float(s) - s0 * s0) * per_px2 for s in sigmas_target_px[1:]]
+        if fixes_alone:
+            C[:8, :8] = self._parameter_cov(0.0, sigma_landmark_m)
+            covs.append(ground_cov(C.reshape(3, 3, 3, 3).transpose(1, 3, 0, 2).reshape(9, 9)))
         en = XY / self._sg + self._Tg_inv[:2, 2]
         if n and not w.min() > 1e-12:                                     # beyond the horizon: no point
             bad = ~(w[:, 0] > 1e-12)

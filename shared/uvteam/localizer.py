@@ -208,8 +208,8 @@ class CrowdEstimate:
                                             # makes (the crowd's estimates scatter by as much, :mod:`.crowds`)
     steady_radius95_m: float = 0.0          # the part of radius95_m that the steady offset the detector
                                             # declares for a crowd's blob makes (:mod:`.crowds` narrows it)
-    fix_radius95_m: float = 0.0             # the part of frame_radius95_m that the noise the landmarks'
-                                            # fixes declare makes (a receiver's: from fix to fix)
+    fix_sigma_m: float = 0.0                # of the frame part, what the noise the landmarks' fixes declare
+                                            # makes (a receiver's, from fix to fix): 1 sigma per axis, RMS
 
 
 @dataclass(frozen=True, slots=True)
@@ -580,7 +580,7 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
     """Phase 5b: the target blobs (indices) on the ground with their 95 % radii and footprints; the
     landmarks' noise (pixel and GNSS) times ``landmark_scale``. Each radius also says how much of it is
     noise that changes from frame to frame (the landmarks', and ``sigma_target_frame_px`` of the
-    target's; None: all of it), and of that how much the noise the fixes declare makes. A point beyond
+    target's; None: all of it), and of that what the noise the fixes declare makes. A point beyond
     the horizon of a bad transform is dropped: never a NaN on the map."""
     if not len(targets):
         return ()
@@ -595,18 +595,19 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
         frame_r95 = r95 if sigma_target_frame_px is None else \
             np.full(len(r95), R95_PER_SIGMA * (sigma_target_frame_px / px_per_m if px_per_m else 0.0))
         n_out = 0
-        fix_r95 = np.zeros(len(r95))
+        fix_sigma = np.zeros(len(r95))
     else:
         h = fit.fit
         s_lm, s_m = sigma_landmark_px * landmark_scale, np.asarray(fit.sigma_m, float) * landmark_scale
-        fix_r95 = radius95_m(h.map_points_with_covs(centre_px, (0.0,), 0.0, s_m)[1][0])
         all_per_frame = sigma_target_frame_px is None or sigma_target_frame_px == sigma_target_px
         if all_per_frame:
-            en, (cov,) = h.map_points_with_covs(centre_px, (sigma_target_px,), s_lm, s_m)
+            en, (cov, cov_fix) = h.map_points_with_covs(centre_px, (sigma_target_px,), s_lm, s_m, fixes_alone=True)
             r95 = frame_r95 = radius95_m(cov)
         else:
-            en, (cov, cov_frame) = h.map_points_with_covs(centre_px, (sigma_target_px, sigma_target_frame_px), s_lm, s_m)
+            en, (cov, cov_frame, cov_fix) = h.map_points_with_covs(
+                centre_px, (sigma_target_px, sigma_target_frame_px), s_lm, s_m, fixes_alone=True)
             r95, frame_r95 = radius95_m(cov), radius95_m(cov_frame)
+        fix_sigma = np.sqrt(0.5 * (cov_fix[:, 0, 0] + cov_fix[:, 1, 1]))
         if fit.quality == FitQuality.HELD:
             r95 = r95 + cfg.held_growth_m_s * fit.age_s
             if all_per_frame:    # then the whole radius is the per-frame part, the held fit's growth included
@@ -618,14 +619,14 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
         n_out = int(len(h.inliers) - h.inliers.sum())
     finite = np.isfinite(np.column_stack([en, r95, fp.reshape(-1, 8)])).all(1)
     keep = range(len(targets)) if finite.all() else np.flatnonzero(finite).tolist()
-    idx, e, n, r, area, rf, rx = targets.tolist(), en[:, 0].tolist(), en[:, 1].tolist(), r95.tolist(), \
-        blobs.area_px[targets].tolist(), frame_r95.tolist(), fix_r95.tolist()
+    idx, e, n, r, area, rf, fx = targets.tolist(), en[:, 0].tolist(), en[:, 1].tolist(), r95.tolist(), \
+        blobs.area_px[targets].tolist(), frame_r95.tolist(), fix_sigma.tolist()
     q = fit.quality
     steady = 0.0    # the declared steady part, in ground metres; none where the radius also covers a suspect fit
     if sigma_target_frame_px is not None and px_per_m and q != FitQuality.SUSPECT:
         steady = R95_PER_SIGMA * sqrt(max(sigma_target_px ** 2 - sigma_target_frame_px ** 2, 0.0)) / px_per_m
-    return tuple(CrowdEstimate(idx[k], e[k], n[k], fp[k], r[k], q, n_out, area[k], rf[k], min(steady, r[k]),
-                               min(rx[k], rf[k])) for k in keep)
+    return tuple(CrowdEstimate(idx[k], e[k], n[k], fp[k], r[k], q, n_out, area[k], rf[k], min(steady, r[k]), fx[k])
+                 for k in keep)
 
 
 def landmark_noise_scale(state: LocalizerState) -> float:

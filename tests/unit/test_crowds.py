@@ -426,7 +426,7 @@ def test_the_landmarks_noise_is_not_taken_for_the_blobs_scatter():
         true = np.array([1.4 * t, 0.5 * t])
         est = true + 0.25 / np.sqrt(2) + rng.normal(0, 0.6, 2)
         c = replace(estimate(*est, area=20.0, r95=math.hypot(declared, frame)), steady_radius95_m=declared,
-                    frame_radius95_m=frame, fix_radius95_m=frame)
+                    frame_radius95_m=frame, fix_sigma_m=0.6)
         state, out = report_crowds(state, (c,), T0 + t, STEPS)
         if out and f >= 100:
             c = out[0].estimate

@@ -127,3 +127,19 @@ def test_radius95_limits():
     r = radius95_m(cov)
     z = rng.multivariate_normal([0, 0], cov, 200_000)
     assert np.mean(np.hypot(z[:, 0], z[:, 1]) <= r) == pytest.approx(0.95, abs=0.003)
+
+
+def test_the_fixes_part_of_a_target_s_covariance_is_theirs_alone():
+    # with fixes_alone the last covariance is the one the landmarks' ground noise makes with no pixel noise
+    # anywhere; the pixel and fix parts add up to the landmarks' whole part (first order: linear in the variances)
+    rng = np.random.default_rng(3)
+    px = rng.uniform([0, 0], [1280, 720], (6, 2))
+    fit = fit_homography(px, apply(H_TRUE, px) + rng.normal(0, 0.3, (6, 2)))
+    targets = rng.uniform([0, 0], [1280, 720], (5, 2))
+    sig_m = np.array([1.0, 0.5, 2.0, 1.0, 0.02, 1.0])
+    en, (whole, fixes) = fit.map_points_with_covs(targets, (0.0,), 0.8, sig_m, fixes_alone=True)
+    _, alone = fit.map_points_with_cov(targets, 0.0, 0.0, sig_m)
+    _, pixels = fit.map_points_with_cov(targets, 0.0, 0.8, 0.0)
+    assert np.allclose(fixes, alone, rtol=1e-9, atol=1e-15)
+    assert np.allclose(whole, pixels + fixes, rtol=1e-9, atol=1e-15)
+    assert (fixes[:, 0, 0] > 0).all() and np.allclose(en, fit.px_to_ground(targets))

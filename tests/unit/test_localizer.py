@@ -270,11 +270,12 @@ def test_a_crowd_s_radius_says_how_much_of_it_the_fixes_noise_makes(fix_sigma_m)
                          sigma_crowd_blob_frame_px=0.0)
     _, res = localize_step(LocalizerState(), o, tracks, cfg())
     (c,) = res.crowds
-    assert 0.0 <= c.fix_radius95_m <= c.frame_radius95_m < c.radius95_m
+    frame_sigma_m = c.frame_radius95_m / 2.4477
+    assert 0.0 <= c.fix_sigma_m <= 1.05 * frame_sigma_m and c.frame_radius95_m < c.radius95_m
     if fix_sigma_m == 0.0:
-        assert c.fix_radius95_m < 0.05 * c.frame_radius95_m + 0.05
+        assert c.fix_sigma_m < 0.05 * frame_sigma_m + 0.02
     else:
-        assert c.fix_radius95_m > 0.9 * c.frame_radius95_m and c.fix_radius95_m > 1.0
+        assert c.fix_sigma_m > 0.9 * frame_sigma_m and c.fix_sigma_m > 0.4
 
 
 def red_beside_its_label(speed_m_s: float, shift_px, sigma_m: float = 0.0):
