@@ -243,9 +243,8 @@ class Homography:
         xy = np.atleast_2d(np.asarray(xy_px, float))
         n = len(xy)
         Hn = np.append(self._h_n, 1.0).reshape(3, 3)
-        C = np.zeros((9, 9))
-        C[:8, :8] = self._parameter_cov(sigma_landmark_px, sigma_landmark_m)
-        Cq = C.reshape(3, 3, 3, 3).transpose(1, 3, 0, 2).reshape(9, 9)   # rows a_k a_l, columns Q_ij
+        C = self._parameter_covs(sigma_landmark_px, sigma_landmark_m, fixes_alone)
+        Cq = _q_blocks(C[0])
         K = (Hn[:, :2] @ Hn[:, :2].T) * (self._sp * self._sp)             # a target's term per px^2
         s0 = float(sigmas_target_px[0])
         Cq[8] += (s0 * s0) * K.ravel()
@@ -268,8 +267,7 @@ class Homography:
             per_px2 = (GK[:, :, :2] - GK[:, :, 2:] * XY[:, None, :]) / scale
             covs += [covs[0] + (float(s) * float(s) - s0 * s0) * per_px2 for s in sigmas_target_px[1:]]
         if fixes_alone:
-            C[:8, :8] = self._parameter_cov(0.0, sigma_landmark_m)
-            covs.append(ground_cov(C.reshape(3, 3, 3, 3).transpose(1, 3, 0, 2).reshape(9, 9)))
+            covs.append(ground_cov(_q_blocks(C[1])))
         en = XY / self._sg + self._Tg_inv[:2, 2]
         if n and not w.min() > 1e-12:                                     # beyond the horizon: no point
             bad = ~(w[:, 0] > 1e-12)
@@ -278,14 +276,19 @@ class Homography:
                 c[bad] = np.nan
         return en, covs
 
-    def _parameter_cov(self, sigma_landmark_px, sigma_landmark_m) -> np.ndarray:
+    def _parameter_covs(self, sigma_landmark_px, sigma_landmark_m, fixes_alone: bool = False) -> list[np.ndarray]:
         """(8, 8) covariance of the normalised parameters from the inliers' pixel and ground noise, through
-        the least-squares solution (Gauss-Newton: dh = -A^+ (dr/dz) dz)."""
+        the least-squares solution (Gauss-Newton: dh = -A^+ (dr/dz) dz); with ``fixes_alone`` also the
+        ground noise's alone."""
         sp = self._per_inlier(sigma_landmark_px, self._sp)
         sg = self._per_inlier(sigma_landmark_m, self._sg)
-        var_z = np.array([v for p, g in zip(sp, sg) for v in (p * p, p * p, g * g, g * g)])  # x, y, X, Y per landmark
+        var_px = np.array([v for p in sp for v in (p * p, p * p, 0.0, 0.0)])   # x, y, X, Y per landmark
+        var_g = np.array([v for g in sg for v in (0.0, 0.0, g * g, g * g)])
         J_h = self._A_pinv @ self._dr_dz                   # (8, 4m), less its sign: J var J^T is the same
-        return (J_h * var_z) @ J_h.T
+        covs = [(J_h * (var_px + var_g)) @ J_h.T]
+        if fixes_alone:
+            covs.append((J_h * var_g) @ J_h.T)
+        return covs
 
     def _per_inlier(self, v, scale: float) -> list[float]:
         """A scalar or a (n,) value per landmark given to the fit -> m plain floats over the inliers, scaled."""
@@ -294,6 +297,14 @@ class Homography:
             return [float(a) * scale] * (self._A_pinv.shape[1] // 2)
         a = a if a.shape == self.inliers.shape else np.broadcast_to(a, self.inliers.shape)
         return [x * scale for x in a[self.inliers].tolist()]
+
+
+def _q_blocks(cov8: np.ndarray) -> np.ndarray:
+    """The (9, 9) matrix that turns a target's a_k a_l into its Q_ij, from the parameters' (8, 8) covariance
+    (h33 = 1 has none): rows a_k a_l, columns Q_ij."""
+    C = np.zeros((9, 9))
+    C[:8, :8] = cov8
+    return C.reshape(3, 3, 3, 3).transpose(1, 3, 0, 2).reshape(9, 9)
 
 
 def _apply(H: np.ndarray, pts) -> np.ndarray:
