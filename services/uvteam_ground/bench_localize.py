@@ -41,6 +41,8 @@ FPS = 30.0
 CYCLE_S = 1.0            # the frames repeat every second of scene time, shifted so that time goes on
 RING_M = 12.0
 UGV_SPEED_M_S = 1.0
+UGV_BLOB_M2 = 8.0        # a UGV's own motion blob: median 7.2 and 9.0 m2 in the pixel pipeline's runs (real-alt60-lm6,
+                         # paper-fig7-alt50, seed 1), over the localizer's min_vehicle_blob_m2: a vehicle, not a piece
 CROWD_OFF_UGV_PX = 90    # crowd blobs lie beyond every UGV's claim (2.5 m and its fix's 95 % error, 1.2 m: 59 px
                          # at 15.8 px/m) and its fixes' noise: the step claims only the UGVs' own blobs
 
@@ -78,7 +80,9 @@ def scene(n_blobs: int, seed: int = 0):
         far = np.sqrt(((cand[:, None] - ugv_px[None]) ** 2).sum(-1)).min(1) > CROWD_OFF_UGV_PX if n_crowd < 1000 else \
             np.min([np.hypot(*(cand - p).T) for p in ugv_px], axis=0) > CROWD_OFF_UGV_PX
         xy = np.vstack([ugv_px + rng.normal(0, 1.0, (6, 2)), cand[far][:n_crowd]])
-        blobs = Blobs(xy, np.column_stack([xy - 12, xy + 12]), np.full(len(xy), 50.0))
+        area = np.full(len(xy), 50.0)
+        area[:6] = UGV_BLOB_M2 * (cam.focal_px / pose.up_m) ** 2
+        blobs = Blobs(xy, np.column_stack([xy - 12, xy + 12]), area)
         labels = Landmarks(tuple(names), ugv_px + rng.normal(0, 0.5, (6, 2)))
         frames.append(FrameObservation(t, labels, blobs, 0.5, 1.0, 1.5, prior, cam.focal_px / pose.up_m))
     return tracks, frames
