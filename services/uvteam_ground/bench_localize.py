@@ -80,9 +80,10 @@ def scene(n_blobs: int, seed: int = 0):
         far = np.sqrt(((cand[:, None] - ugv_px[None]) ** 2).sum(-1)).min(1) > CROWD_OFF_UGV_PX if n_crowd < 1000 else \
             np.min([np.hypot(*(cand - p).T) for p in ugv_px], axis=0) > CROWD_OFF_UGV_PX
         xy = np.vstack([ugv_px + rng.normal(0, 1.0, (6, 2)), cand[far][:n_crowd]])
-        area = np.full(len(xy), 50.0)
+        area, half = np.full(len(xy), 50.0), np.full((len(xy), 1), 12.0)
         area[:6] = UGV_BLOB_M2 * (cam.focal_px / pose.up_m) ** 2
-        blobs = Blobs(xy, np.column_stack([xy - 12, xy + 12]), area)
+        half[:6] = np.sqrt(area[:6, None]) / 2          # a square box of the blob's area
+        blobs = Blobs(xy, np.column_stack([xy - half, xy + half]), area)
         labels = Landmarks(tuple(names), ugv_px + rng.normal(0, 0.5, (6, 2)))
         frames.append(FrameObservation(t, labels, blobs, 0.5, 1.0, 1.5, prior, cam.focal_px / pose.up_m))
     return tracks, frames
