@@ -209,7 +209,8 @@ class CrowdEstimate:
     steady_radius95_m: float = 0.0          # the part of radius95_m that the steady offset the detector
                                             # declares for a crowd's blob makes (:mod:`.crowds` narrows it)
     fix_sigma_m: float = 0.0                # of the frame part, what the noise the landmarks' fixes declare
-                                            # makes (a receiver's, from fix to fix): 1 sigma per axis, RMS
+                                            # makes (a receiver's, from fix to fix): 1 sigma per axis, RMS;
+                                            # 0 with no steady part (none to narrow by it, :mod:`.crowds`)
 
 
 @dataclass(frozen=True, slots=True)
@@ -580,10 +581,15 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
     """Phase 5b: the target blobs (indices) on the ground with their 95 % radii and footprints; the
     landmarks' noise (pixel and GNSS) times ``landmark_scale``. Each radius also says how much of it is
     noise that changes from frame to frame (the landmarks', and ``sigma_target_frame_px`` of the
-    target's; None: all of it), and of that what the noise the fixes declare makes. A point beyond
-    the horizon of a bad transform is dropped: never a NaN on the map."""
+    target's; None: all of it), and of that what the noise the fixes declare makes (where a steady part is
+    declared: only that part is narrowed by it, :mod:`.crowds`). A point beyond the horizon of a bad
+    transform is dropped: never a NaN on the map."""
     if not len(targets):
         return ()
+    q = fit.quality
+    steady = 0.0    # the declared steady part, in ground metres; none where the radius also covers a suspect fit
+    if sigma_target_frame_px is not None and px_per_m and q != FitQuality.SUSPECT:
+        steady = R95_PER_SIGMA * sqrt(max(sigma_target_px ** 2 - sigma_target_frame_px ** 2, 0.0)) / px_per_m
     centre_px = blobs.xy_px[targets]
     corners = blobs.xyxy_px[targets[:, None], _BOX_CORNERS].reshape(-1, 2)
     if fit.quality == FitQuality.POSE:
@@ -600,14 +606,15 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
         h = fit.fit
         s_lm, s_m = sigma_landmark_px * landmark_scale, np.asarray(fit.sigma_m, float) * landmark_scale
         all_per_frame = sigma_target_frame_px is None or sigma_target_frame_px == sigma_target_px
-        if all_per_frame:
-            en, (cov, cov_fix) = h.map_points_with_covs(centre_px, (sigma_target_px,), s_lm, s_m, fixes_alone=True)
+        if all_per_frame:    # then no steady part is declared
+            en, (cov,) = h.map_points_with_covs(centre_px, (sigma_target_px,), s_lm, s_m)
             r95 = frame_r95 = radius95_m(cov)
+            fix_sigma = np.zeros(len(r95))
         else:
-            en, (cov, cov_frame, cov_fix) = h.map_points_with_covs(
-                centre_px, (sigma_target_px, sigma_target_frame_px), s_lm, s_m, fixes_alone=True)
-            r95, frame_r95 = radius95_m(cov), radius95_m(cov_frame)
-        fix_sigma = np.sqrt(0.5 * (cov_fix[:, 0, 0] + cov_fix[:, 1, 1]))
+            en, covs = h.map_points_with_covs(centre_px, (sigma_target_px, sigma_target_frame_px), s_lm, s_m,
+                                              fixes_alone=steady > 0)
+            r95, frame_r95 = radius95_m(covs[0]), radius95_m(covs[1])
+            fix_sigma = np.sqrt(0.5 * (covs[2][:, 0, 0] + covs[2][:, 1, 1])) if steady > 0 else np.zeros(len(r95))
         if fit.quality == FitQuality.HELD:
             r95 = r95 + cfg.held_growth_m_s * fit.age_s
             if all_per_frame:    # then the whole radius is the per-frame part, the held fit's growth included
@@ -621,10 +628,6 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
     keep = range(len(targets)) if finite.all() else np.flatnonzero(finite).tolist()
     idx, e, n, r, area, rf, fx = targets.tolist(), en[:, 0].tolist(), en[:, 1].tolist(), r95.tolist(), \
         blobs.area_px[targets].tolist(), frame_r95.tolist(), fix_sigma.tolist()
-    q = fit.quality
-    steady = 0.0    # the declared steady part, in ground metres; none where the radius also covers a suspect fit
-    if sigma_target_frame_px is not None and px_per_m and q != FitQuality.SUSPECT:
-        steady = R95_PER_SIGMA * sqrt(max(sigma_target_px ** 2 - sigma_target_frame_px ** 2, 0.0)) / px_per_m
     return tuple(CrowdEstimate(idx[k], e[k], n[k], fp[k], r[k], q, n_out, area[k], rf[k], min(steady, r[k]), fx[k])
                  for k in keep)
 
