@@ -97,12 +97,13 @@ def test_own_scenarios_load_with_ten_seeds(name):
     assert name in (OWN_SCENARIOS / "README.md").read_text()
 
 
-def test_gnss_tilt_noise_and_pose_variants_differ_from_their_base_only_there():
+def test_gnss_tilt_noise_height_and_pose_variants_differ_from_their_base_only_there():
     for name, base, changed in (("real-alt60-lm6-gnss1", "real-alt60-lm6", ("gnss",)),
                                 ("real-alt120-lm6-gnss1", "real-alt120-lm6", ("gnss",)),
                                 ("real-alt60-lm6-gnss1drift", "real-alt60-lm6", ("gnss",)),
                                 ("real-alt120-lm6-gnss1drift", "real-alt120-lm6", ("gnss",)),
                                 ("real-alt120-lm6-tilt9", "real-alt120-lm6", ("uav",)),
+                                ("real-alt200-lm6", "real-alt120-lm6", ("uav", "ground")),
                                 ("real-alt60-lm6-noise20", "real-alt60-lm6", ("camera",)),
                                 ("real-alt60-lm6-winding", "real-alt60-lm6", ("crowds",)),
                                 ("real-alt120-lm6-winding", "real-alt120-lm6", ("crowds",)),
@@ -133,6 +134,10 @@ def test_gnss_tilt_noise_and_pose_variants_differ_from_their_base_only_there():
         assert v.crowds == (replace(b.crowds[0], turn_sigma_deg_s=6.0),) and b.crowds[0].turn_sigma_deg_s == 0.0
     v, b = load_own_scenario("real-alt60-lm6-two"), load_own_scenario("real-alt60-lm6")
     assert v.crowds[0] == b.crowds[0] and len(v.crowds) == 2 and v.crowds[1].turn_sigma_deg_s == 0.0
+    v, b = load_own_scenario("real-alt200-lm6"), load_own_scenario("real-alt120-lm6")
+    assert (v.uav.altitude_agl_m, b.uav.altitude_agl_m) == (200.0, 120.0)
+    assert replace(v.uav, altitude_agl_m=b.uav.altitude_agl_m) == b.uav   # the texel: half the pixel again
+    assert replace(v.ground, texel_m=b.ground.texel_m) == b.ground and v.ground.texel_m / b.ground.texel_m == 0.125 / 0.08
     t = load_own_scenario("real-alt120-lm6-tilt9").uav
     assert 8.0 <= off_nadir_deg(t.tilt_roll_deg, t.tilt_pitch_deg) <= 10.0
 
