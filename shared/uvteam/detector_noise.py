@@ -14,7 +14,12 @@ localizer propagates into every crowd's 95 % radius. Declared once per detector.
   0.46 / 0.64 m; docs/radius_decomposition.py, 2026-12-03 at 470d8d1, once a crowd's strays pull its
   centre, :mod:`uvteam.vision.motion` step 7). Before: 0.72 m when first measured (2026-12-02), 0.63 m
   once the detector saw walkers of little contrast (at 8a59b0b), 0.62 m once the blob's centre came
-  from its motion history (at 613a079; the value stood). It does not average out
+  from its motion history (at 613a079; the value stood). Where a walker is two or three pixels the
+  offset grows: at 200 m over real imagery (0.253 m a pixel) walkers on dark ground drop out of the
+  blob, and seeds 2-3 kept 0.52 / 0.95 m (RMS 0.77 m = 3.0 px; seeds 1, 100-103 0.71-1.34 m), where at
+  60 and 120 m seeds 1-3 kept 0.37-0.70 m. So the declared part is never under
+  ``CROWD_BLOB_MIN_PX`` image pixels, which with a 1280-pixel 78 deg camera first exceeds 0.52 m above
+  137 m (docs/results-worlds.md, session 48). It does not average out
   over frames, and nothing one view shows (ground texture, the compensated difference's noise, the
   blob's area or box) was found to tell a crowd's offset, so the value declared is the worst ground's;
   what a crowd's estimates do over seconds does tell it (a blob whose centre scatters little about its
@@ -30,7 +35,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["DetectorNoise", "PIXEL_SIGMA_M", "SENSOR_MODEL_NOISE", "pixel_pipeline_noise"]
+__all__ = ["CROWD_BLOB_MIN_PX", "DetectorNoise", "PIXEL_SIGMA_M", "SENSOR_MODEL_NOISE", "pixel_pipeline_noise"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -45,6 +50,7 @@ class DetectorNoise:
 
 
 PIXEL_SIGMA_M = {"color": 0.03, "ugv_blob": 0.25, "crowd_blob": 0.52}
+CROWD_BLOB_MIN_PX = 3.0   # ... and never under this many image pixels: walkers of two pixels (200 m)
 SENSOR_MODEL_NOISE = DetectorNoise(color_px=0.5, ugv_blob_px=1.0, crowd_blob_px=1.5)   # white: all per frame
 
 
@@ -54,4 +60,4 @@ def pixel_pipeline_noise(alt_agl_m: float, focal_px: float) -> DetectorNoise:
         raise ValueError(f"alt_agl_m and focal_px must be > 0, got {alt_agl_m}, {focal_px}")
     px_per_m = focal_px / alt_agl_m
     return DetectorNoise(PIXEL_SIGMA_M["color"] * px_per_m, PIXEL_SIGMA_M["ugv_blob"] * px_per_m,
-                         PIXEL_SIGMA_M["crowd_blob"] * px_per_m, crowd_blob_frame_px=0.0)
+                         max(PIXEL_SIGMA_M["crowd_blob"] * px_per_m, CROWD_BLOB_MIN_PX), crowd_blob_frame_px=0.0)
