@@ -13,7 +13,10 @@ runs and its cores are shared, so only figures taken together compare):
 
 The scene: a UAV camera 50 m up (1280x720, 78 deg), six UGVs on a 12 m ring driving at 1 m/s with
 10 Hz fixes that report their velocity, their roof labels and motion blobs where the camera sees them,
-and crowd blobs scattered in the rest of the image; 30 frames a second. Before timing, both steps run
+and crowd blobs scattered in the rest of the image; 30 frames a second. The detections declare what the
+pixel pipeline declares (``--detector pixels``, the deployed path: a crowd blob's offset all steady, the
+rest measured in flight, so the step also propagates the fixes' part of each radius) or what the
+simulator's sensor model does (``--detector sensor``: all per frame). Before timing, both steps run
 over the same frames and must give the same results (to 1e-9 m): a faster step that is not the same
 step is not measured.
 
@@ -47,10 +50,12 @@ CROWD_OFF_UGV_PX = 90    # crowd blobs lie beyond every UGV's claim (2.5 m and i
                          # at 15.8 px/m) and its fixes' noise: the step claims only the UGVs' own blobs
 
 
-def scene(n_blobs: int, seed: int = 0):
-    """(tracks, frames): one second of the scene (``FPS`` frames) with ``n_blobs`` blobs each, six of them UGVs."""
+def scene(n_blobs: int, seed: int = 0, detector: str = "pixels"):
+    """(tracks, frames): one second of the scene (``FPS`` frames) with ``n_blobs`` blobs each, six of them UGVs,
+    with the noise the ``detector`` ("pixels" or "sensor") declares."""
     from uvteam.blobs import Blobs, Landmarks  # noqa: PLC0415
     from uvteam.camera import CameraPose, PinholeCamera, project  # noqa: PLC0415
+    from uvteam.detector_noise import SENSOR_MODEL_NOISE, pixel_pipeline_noise  # noqa: PLC0415
     from uvteam.geo import LocalFrame  # noqa: PLC0415
     from uvteam.localizer import FrameObservation, UgvTrack  # noqa: PLC0415
     from uvteam.messages import CameraPoseReport  # noqa: PLC0415
@@ -63,6 +68,7 @@ def scene(n_blobs: int, seed: int = 0):
     report = CameraPoseReport(float(lat[0]), float(lon[0]), 50.0, 0.0, 0.0, 10.0, 1.0, 1.0, 2.0, 0.5)
     pose = CameraPose(0.0, 0.0, 50.0, yaw_deg=10.0)
     prior = pose_prior(report, frame, cam.width_px, cam.height_px, cam.focal_px)
+    noise = {"pixels": pixel_pipeline_noise(pose.up_m, cam.focal_px), "sensor": SENSOR_MODEL_NOISE}[detector]
     names = [f"ugv{i + 1}" for i in range(6)]
     ang = np.linspace(0, 2 * np.pi, 6, endpoint=False)
     start = RING_M * np.column_stack([np.sin(ang), np.cos(ang)])
@@ -85,7 +91,8 @@ def scene(n_blobs: int, seed: int = 0):
         half[:6] = np.sqrt(area[:6, None]) / 2          # a square box of the blob's area
         blobs = Blobs(xy, np.column_stack([xy - half, xy + half]), area)
         labels = Landmarks(tuple(names), ugv_px + rng.normal(0, 0.5, (6, 2)))
-        frames.append(FrameObservation(t, labels, blobs, 0.5, 1.0, 1.5, prior, cam.focal_px / pose.up_m))
+        frames.append(FrameObservation(t, labels, blobs, noise.color_px, noise.ugv_blob_px, noise.crowd_blob_px, prior,
+                                       cam.focal_px / pose.up_m, noise.crowd_blob_frame_px))
     return tracks, frames
 
 
@@ -134,14 +141,14 @@ def _reference():
     return importlib.import_module("reference.localize_4d30179.localizer")
 
 
-def _measure(n_blobs: int, rounds: int, frames_per_batch: int) -> dict:
+def _measure(n_blobs: int, rounds: int, frames_per_batch: int, detector: str = "pixels") -> dict:
     import cv2  # noqa: PLC0415
 
     from uvteam import localizer as now  # noqa: PLC0415
 
     before = _reference()
     cfg_now = now.LocalizerConfig()
-    tracks, frames = scene(n_blobs)
+    tracks, frames = scene(n_blobs, detector=detector)
     n_cmp, worst = 0, float("nan")
     if before is not None:
         cfg_before = before.LocalizerConfig()
@@ -197,8 +204,10 @@ def _measure(n_blobs: int, rounds: int, frames_per_batch: int) -> dict:
             "speedup": speedup, "now_over_cv2": vs_cv2, "crowds_compared": n_cmp, "max_diff_m": worst}
 
 
-def bench_localize(rounds: int = 30, big_rounds: int = 5, blobs: tuple[int, ...] = (20, 10_000)) -> dict:
-    """Time the step for 6 landmarks and each number of ``blobs``; print and return the figures."""
+def bench_localize(rounds: int = 30, big_rounds: int = 5, blobs: tuple[int, ...] = (20, 10_000),
+                   detector: str = "pixels") -> dict:
+    """Time the step for 6 landmarks and each number of ``blobs``, on the noise the ``detector`` declares;
+    print and return the figures."""
     try:
         import cv2  # noqa: PLC0415
 
@@ -210,12 +219,12 @@ def bench_localize(rounds: int = 30, big_rounds: int = 5, blobs: tuple[int, ...]
     except (AttributeError, OSError):
         cores = []
     load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
-    print(f"localize bench {datetime.datetime.now().isoformat(timespec='seconds')}: 6 landmarks, cores {cores}, "
-          f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
+    print(f"localize bench {datetime.datetime.now().isoformat(timespec='seconds')}: 6 landmarks, {detector} "
+          f"detector's noise, cores {cores}, load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
     out = {}
     for n in blobs:
         big = n > 1000
-        r = _measure(n, big_rounds if big else rounds, 3 if big else int(FPS * CYCLE_S))
+        r = _measure(n, big_rounds if big else rounds, 3 if big else int(FPS * CYCLE_S), detector)
         out[n] = r
         print(f"  {n:6d} blobs: now {r['now_us']:9.1f} us/step (10-90 %: {r['now_q10_us']:.1f}-{r['now_q90_us']:.1f}), "
               f"before {r['before_us']:9.1f} us, cv2 findHomography+perspectiveTransform {r['cv2_us']:8.1f} us")
@@ -233,8 +242,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rounds", type=int, default=30, help="interleaved rounds of 30 frames (20 blobs)")
     ap.add_argument("--big-rounds", type=int, default=5, help="interleaved rounds of 3 frames (10,000 blobs)")
     ap.add_argument("--blobs", type=int, nargs="+", default=[20, 10_000], help="blob counts to time")
+    ap.add_argument("--detector", choices=("pixels", "sensor"), default="pixels",
+                    help="the noise the detections declare: the pixel pipeline's (deployed) or the sensor model's")
     args = ap.parse_args(argv)
-    bench_localize(args.rounds, args.big_rounds, tuple(args.blobs))
+    bench_localize(args.rounds, args.big_rounds, tuple(args.blobs), args.detector)
     return 0
 
 

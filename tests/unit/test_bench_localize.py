@@ -45,3 +45,14 @@ def test_the_scene_s_ugvs_have_a_vehicle_s_blob_not_a_piece():
     least_px = now.LocalizerConfig().min_vehicle_blob_m2 * frames[0].px_per_m ** 2
     for f in frames:
         assert (f.blobs.area_px[:6] > least_px).all() and (f.blobs.area_px[6:] < least_px).all()
+
+
+def test_the_scene_takes_the_deployed_pixel_pipeline_s_path_unless_told_otherwise():
+    # the pixel pipeline declares a crowd blob's offset all steady, so the step also propagates the fixes'
+    # part of each radius (docs/performance.md 1b, session 48); the sensor model declares it all per frame
+    for detector, steady in (("pixels", True), ("sensor", False)):
+        tracks, frames = bench_localize.scene(20, detector=detector)
+        _, res = now.localize_step(now.LocalizerState(), frames[0], tracks, now.LocalizerConfig())
+        assert len(res.crowds) == 14
+        assert all((c.steady_radius95_m > 0 and c.fix_sigma_m > 0) == steady for c in res.crowds), detector
+    assert bench_localize.scene(20)[1][0].sigma_crowd_blob_frame_px == 0.0
