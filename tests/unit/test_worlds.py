@@ -138,7 +138,8 @@ def test_gnss_tilt_noise_height_and_pose_variants_differ_from_their_base_only_th
     assert (v.uav.altitude_agl_m, b.uav.altitude_agl_m) == (200.0, 120.0)
     assert replace(v.uav, altitude_agl_m=b.uav.altitude_agl_m) == b.uav
     # its ground's texel half its pixel's footprint again, as at 120 m (0.08 m of 0.152 m)
-    assert replace(v.ground, texel_m=b.ground.texel_m) == b.ground and (v.ground.texel_m, b.ground.texel_m) == (0.125, 0.08)
+    assert replace(v.ground, texel_m=b.ground.texel_m) == b.ground
+    assert (v.ground.texel_m, b.ground.texel_m) == (0.125, 0.08)
     t = load_own_scenario("real-alt120-lm6-tilt9").uav
     assert 8.0 <= off_nadir_deg(t.tilt_roll_deg, t.tilt_pitch_deg) <= 10.0
 
