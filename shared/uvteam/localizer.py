@@ -592,6 +592,7 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
         steady = R95_PER_SIGMA * sqrt(max(sigma_target_px ** 2 - sigma_target_frame_px ** 2, 0.0)) / px_per_m
     centre_px = blobs.xy_px[targets]
     corners = blobs.xyxy_px[targets[:, None], _BOX_CORNERS].reshape(-1, 2)
+    fix_sigma = np.zeros(len(targets))   # the fixes' part: only where a steady part is declared (below)
     if fit.quality == FitQuality.POSE:
         prior = fit.prior
         en = prior.px_to_ground(centre_px)
@@ -601,7 +602,6 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
         frame_r95 = r95 if sigma_target_frame_px is None else \
             np.full(len(r95), R95_PER_SIGMA * (sigma_target_frame_px / px_per_m if px_per_m else 0.0))
         n_out = 0
-        fix_sigma = np.zeros(len(r95))
     else:
         h = fit.fit
         s_lm, s_m = sigma_landmark_px * landmark_scale, np.asarray(fit.sigma_m, float) * landmark_scale
@@ -609,12 +609,12 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
         if all_per_frame:    # then no steady part is declared
             en, (cov,) = h.map_points_with_covs(centre_px, (sigma_target_px,), s_lm, s_m)
             r95 = frame_r95 = radius95_m(cov)
-            fix_sigma = np.zeros(len(r95))
         else:
             en, covs = h.map_points_with_covs(centre_px, (sigma_target_px, sigma_target_frame_px), s_lm, s_m,
                                               fixes_alone=steady > 0)
             r95, frame_r95 = radius95_m(covs[0]), radius95_m(covs[1])
-            fix_sigma = np.sqrt(0.5 * (covs[2][:, 0, 0] + covs[2][:, 1, 1])) if steady > 0 else np.zeros(len(r95))
+            if steady > 0:
+                fix_sigma = np.sqrt(0.5 * (covs[2][:, 0, 0] + covs[2][:, 1, 1]))
         if fit.quality == FitQuality.HELD:
             r95 = r95 + cfg.held_growth_m_s * fit.age_s
             if all_per_frame:    # then the whole radius is the per-frame part, the held fit's growth included
