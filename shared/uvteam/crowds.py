@@ -148,7 +148,13 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    weighted by moving pixels). Measured on tuning seeds (two-crowd world 1-2, field-alt100-lm6 1 and 3; 1,484
    frames with two crowds reported): footprints that overlap, mingling in 245 of 526; apart by up to
    1 m, 19 of 123; further apart, never (0 of 835). The two-crowd world's frames with its crowds mingling and
-   reported as two held the joint centre in 15 of 211 frames before, 197 after (seeds 1-3);
+   reported as two held the joint centre in 15 of 211 frames before, 197 after (seeds 1-3). And the converse:
+   a crowd joined from parts whose footprints do not touch (step 2: parts that keep their distance, a small
+   one beside a big one) may be two crowds, and so may its blob seen whole again with the moving pixels of
+   both (the biggest group's and ``held_share`` of the rest), up to ``coast_s`` after it was last seen so: its
+   radius widened to hold also the centre of its group of parts farthest from its own (:func:`_may_be_two`;
+   the two-crowd world's report seed 8 at 1.2-10 s: crowds of 15 and 8 walkers 14 m apart walking side by
+   side, the smaller joined as a straggler, one blob from 5.1 s, reported 3.3-4.5 m off with 1.1-2.1 m radii);
 10. each crowd seen is reported where a constant-velocity filter of its estimates has it (:class:`Smoothed`, a
    Kalman filter per crowd id): its estimates' noise from frame to frame is what its track's scatter within
    ``scatter_fast_s`` measures (until there is such a measure, its track too young for it or for a velocity,
@@ -284,6 +290,9 @@ class GroupingState:
     still_two: Mapping[int, tuple[float, float]] = field(default_factory=dict)  # per crowd id whose blob held
     # crowds (step 8): how far its radius reached for its own crowd (m), and the moving pixels the blob had to have
     smoothed: Mapping[int, "Smoothed"] = field(default_factory=dict)  # per crowd id seen, its filter (step 10)
+    in_parts: Mapping[int, tuple[float, float, float, float]] = field(default_factory=dict)  # per crowd id last
+    # seen in parts apart (step 9): when, the farthest group's distance from its centre (m), the biggest group's
+    # moving pixels and the others'
 
 
 def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig = GroupingConfig(),
@@ -821,7 +830,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     joined = _joined_after(state.joined, [trk[k].track_id for k in parts], labels, live)
     for k, g in zip(parts, labels):
         groups.setdefault(g, []).append(k)
-    out, of_lead = [], {}
+    out, of_lead, in_parts = [], {}, {}
     once = [k for k in range(len(trk)) if trk[k].hits < cfg.confirm_hits - 1 and k not in of_part]
     for members in groups.values():
         if not any(k in confirmed for k in members):    # young parts join a crowd; alone they are none
@@ -831,18 +840,81 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
             continue
         out.append(ReportedCrowd(_merge([estimates[k] for k in members]), trk[lead], trk[lead].track_id))
         of_lead[trk[lead].track_id] = [trk[k].track_id for k in members]
+        if (apart_parts := _parts_apart([estimates[k] for k in members])) is not None:
+            in_parts[trk[lead].track_id] = apart_parts
     out, last_seen, alias, coasted, inside, still_two = _remembered(
         state, out, stamp_s, cfg, live, frozenset(holds), frozenset(released),
         {trk[k].track_id: cid for k, (_, cid) in came_out.items()})
     crowd_of = {t: c for t, c in state.crowd_of.items() if t in live}
     crowd_of.update((t, r.crowd_id) for r in out for t in of_lead[r.track.track_id])
+    out, in_parts = _may_be_two(state.in_parts, out, in_parts, stamp_s, cfg)
     out = _mingling(out + coasted, cfg)
     out.sort(key=lambda c: (-c.track.hits, c.crowd_id))
     apart = frozenset(p for p in apart if p[0] in live and p[1] in live)   # forgotten with either track
     holds = {x: v for x, v in holds.items() if v and x in live}
     out, smoothed = _smoothed(state.smoothed, out, fast_of, stamp_s, cfg)
     return GroupingState(tracker, apart, streak, holds, last_seen, alias, drifted & apart, joined, crowd_of,
-                         inside, still_two, smoothed), out
+                         inside, still_two, smoothed, in_parts), out
+
+
+def _parts_apart(parts: list[CrowdEstimate]) -> tuple[float, float, float] | None:
+    """The parts of one crowd (step 2) in groups whose footprints touch: with two or more such groups, how far
+    the farthest group's centre lies from the crowd's (both weighted by moving pixels, m), the biggest group's
+    moving pixels and the other groups'; None with one group."""
+    if len(parts) < 2:
+        return None
+    touch = _box_gaps_m(_boxes_en(parts)) <= 0.0
+    group = [-1] * len(parts)
+    for start in range(len(parts)):
+        if group[start] >= 0:
+            continue
+        group[start], todo = start, [start]
+        while todo:
+            k = todo.pop()
+            for j in np.flatnonzero(touch[k]).tolist():
+                if group[j] < 0:
+                    group[j] = start
+                    todo.append(j)
+    if len(set(group)) < 2:
+        return None
+    w = np.array([max(p.area_px, 1e-9) for p in parts])
+    en = np.array([[p.east_m, p.north_m] for p in parts])
+    centre = w @ en / w.sum()
+    g = np.array(group)
+    areas = {x: float(w[g == x].sum()) for x in set(group)}
+    off_m = max(float(np.hypot(*(w[g == x] @ en[g == x] / a - centre))) for x, a in areas.items())
+    biggest = max(areas.values())
+    return off_m, biggest, float(sum(areas.values()) - biggest)
+
+
+def _may_be_two(prev: Mapping[int, tuple[float, float, float, float]], crowds: list[ReportedCrowd],
+                apart_now: Mapping[int, tuple[float, float, float]], stamp_s: float, cfg: GroupingConfig
+                ) -> tuple[list[ReportedCrowd], dict[int, tuple[float, float, float, float]]]:
+    """Step 9, the converse: each crowd seen in parts whose footprints lie apart (``apart_now``, per lead track:
+    :func:`_parts_apart`) may be two crowds, and so may its blob seen whole again with the moving pixels of both
+    (the biggest group's and ``held_share`` of the others') up to ``coast_s`` after (``prev``, per crowd id): its
+    radius widened to hold also the farthest group's centre. Returns the crowds and what is remembered."""
+    out, kept = [], {}
+    for r in crowds:
+        c = r.estimate
+        now = apart_now.get(r.track.track_id)
+        if now is not None:
+            kept[r.crowd_id] = (stamp_s, *now)
+        elif r.crowd_id in prev:
+            seen_s, _, biggest, others = prev[r.crowd_id]
+            if stamp_s - seen_s > cfg.coast_s or c.area_px < biggest + cfg.held_share * others:
+                out.append(r)
+                continue
+            kept[r.crowd_id] = prev[r.crowd_id]
+        else:
+            out.append(r)
+            continue
+        r95 = float(np.hypot(c.radius95_m, kept[r.crowd_id][1]))
+        out.append(replace(r, estimate=replace(c, radius95_m=r95)))
+    seen = {r.crowd_id for r in crowds}
+    # a crowd missed for a frame (held by its walk, step 6) is the same blob when seen again
+    kept.update((cid, v) for cid, v in prev.items() if cid not in seen and stamp_s - v[0] <= cfg.coast_s)
+    return out, kept
 
 
 def _mingling(crowds: list[ReportedCrowd], cfg: GroupingConfig) -> list[ReportedCrowd]:

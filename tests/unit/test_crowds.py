@@ -89,6 +89,51 @@ def test_two_crowds_walking_footprints_close_each_hold_their_joint_centre(last_g
     assert (last_gap_m > 1.0) or min(r.estimate.radius95_m - by_id[r.crowd_id].radius95_m for r in out) > 0.5
 
 
+def _radii(parts_at, seconds):
+    """Per frame: (t, [(crowd id, east m, 95 % radius m)]) of report_crowds fed parts_at(t) -> [(east, north,
+    area, footprint half-side)], no jitter."""
+    state, got = GroupingState(), []
+    for f in range(int(seconds * 10)):
+        t = f / 10
+        state, out = report_crowds(state, tuple(estimate(e, n, a, half=h) for e, n, a, h in parts_at(t)), T0 + t,
+                                   STEPS)
+        got.append((t, [(r.crowd_id, r.estimate.east_m, r.estimate.radius95_m) for r in out]))
+    return got
+
+
+@pytest.mark.parametrize("whole_until_s", [5.0, 9.5])
+def test_a_crowd_seen_in_parts_apart_may_be_two(whole_until_s):
+    # two parts 8 m apart walking together (one crowd, step 2; moving pixels 30 and 15) for 3 s, then one blob
+    # with both's pixels at their joint centre, then the big part's alone. With their footprints apart (the
+    # small one's +-1 m), they may be two crowds: the radius also holds the small part's centre, 8 * 30/45 m from
+    # the crowd's, while seen apart and while the blob has both's pixels, up to coast_s (5 s) after last seen
+    # apart. With footprints that overlap (+-7.5 m), and once the blob has only the big part's pixels, the
+    # radius is what it was
+    def parts(half):
+        def at(t):
+            if t < 3.0:
+                return [(1.4 * t, 0.0, 30.0, 1.0), (1.4 * t + 8.0, 0.0, 15.0, half)]
+            if t < whole_until_s:
+                return [(1.4 * t + 8.0 / 3.0, 0.0, 45.0, 5.0)]
+            return [(1.4 * t, 0.0, 30.0, 1.0)]
+        return at
+    widened = kept = 0
+    for (t, apart), (_, touching) in zip(_radii(parts(1.0), 11.0), _radii(parts(7.5), 11.0)):
+        assert len(apart) == len(touching) == (1 if t >= 0.2 else 0)
+        if not apart:
+            continue
+        (cid, east, r95), (cid0, east0, r95_0) = apart[0], touching[0]
+        assert (cid, east) == (cid0, east0)       # placed the same: only the radius changes
+        if t < whole_until_s and t <= 2.9 + 5.0:
+            assert r95 == pytest.approx(math.hypot(r95_0, 8.0 * 30.0 / 45.0), rel=1e-12)
+            widened += 1
+        else:
+            assert r95 == r95_0
+            kept += 1
+        assert t >= 3.0 or r95_0 == pytest.approx(1.0)     # the parts' own radius
+    assert widened >= 47 and kept >= 30
+
+
 def test_parts_seen_apart_too_briefly_are_one_crowd():
     # the same two crowds, but the second part only appears for the last 0.5 s: too young to tell
     out = run(lambda t: [(0.0, 0.0, 20.0)] + ([(6.0 - 0.7 * t, 0.0, 10.0)] if t >= 5.5 else []))
