@@ -148,7 +148,10 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    weighted by moving pixels). Measured on tuning seeds (two-crowd world 1-2, field-alt100-lm6 1 and 3; 1,484
    frames with two crowds reported): footprints that overlap, mingling in 245 of 526; apart by up to
    1 m, 19 of 123; further apart, never (0 of 835). The two-crowd world's frames with its crowds mingling and
-   reported as two held the joint centre in 15 of 211 frames before, 197 after (seeds 1-3). And the converse:
+   reported as two held the joint centre in 15 of 211 frames before, 197 after (seeds 1-3). ``mingle_m`` was
+   1 m for that table; it is the scoring's 2 m, under which walkers in the two footprints can be that close:
+   the two-crowd world's fresh seed 123 had its crowds mingling for 5 s (8.3-13.8 s) with footprints 1.1-2.4 m
+   apart, reported 3.1-4.6 m off with 0.8-0.9 m radii. And the converse:
    a crowd joined from parts whose footprints do not touch (step 2: parts that keep their distance, a small
    one beside a big one) may be two crowds, and so may its blob seen whole again with the moving pixels of
    both (the biggest group's and ``held_share`` of the rest), up to ``coast_s`` after it was last seen so: its
@@ -218,7 +221,7 @@ class GroupingConfig:
     two_upper_k: float = 2.0      # parts of two crowds are one once their drift plus this many standard errors is slow
     held_share: float = 0.5       # a crowd's blob with its usual pixels and this share of an unseen one's holds it (step 8)
     held_keep_share: float = 0.1   # ... and, holding it, keeps it with this share (one frame short forgot it)
-    mingle_m: float = 1.0         # crowds whose footprints come this close may be one crowd: their radii hold both (step 9)
+    mingle_m: float = 2.0         # crowds whose footprints come this close may be one crowd: their radii hold both (step 9)
     smooth_accel_m_s2: float = 0.5  # a crowd seen is reported through a filter that lets its pace and heading change
                                     # by this per axis (1 sigma; 0: reported as estimated) (step 10)
     smooth_gate: float = 4.0      # ... an estimate this many standard deviations from the filter's starts it afresh
