@@ -151,13 +151,13 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    reported as two held the joint centre in 15 of 211 frames before, 197 after (seeds 1-3). ``mingle_m`` was
    1 m for that table; it is the scoring's 2 m, under which walkers in the two footprints can be that close:
    the two-crowd world's fresh seed 123 had its crowds mingling for 5 s (8.3-13.8 s) with footprints 1.1-2.4 m
-   apart, reported 3.1-4.6 m off with 0.8-0.9 m radii. And the converse:
-   a crowd joined from parts whose footprints do not touch (step 2: parts that keep their distance, a small
-   one beside a big one) may be two crowds, and so may its blob seen whole again with the moving pixels of
-   both (the biggest group's and ``held_share`` of the rest), up to ``coast_s`` after it was last seen so: its
-   radius widened to hold also the centre of its group of parts farthest from its own (:func:`_may_be_two`;
-   the two-crowd world's report seed 8 at 1.2-10 s: crowds of 15 and 8 walkers 14 m apart walking side by
-   side, the smaller joined as a straggler, one blob from 5.1 s, reported 3.3-4.5 m off with 1.1-2.1 m radii);
+   apart, reported 3.1-4.6 m off with 0.8-0.9 m radii. And the converse: a crowd joined from parts whose
+   footprints do not touch (step 2: parts that keep their distance, a small one beside a big one) may be two
+   crowds, and so may its blob seen whole again with the moving pixels of both (the biggest group's and
+   ``held_share`` of the rest), up to ``coast_s`` after it was last seen so: its radius widened to hold also
+   the centre of its group of parts farthest from its own (:func:`_may_be_two`; the two-crowd world's report
+   seed 8 at 1.2-10 s: crowds of 15 and 8 walkers 14 m apart walking side by side, the smaller joined as a
+   straggler, one blob from 5.1 s, reported 3.3-4.5 m off with 1.1-2.1 m radii);
 10. each crowd seen is reported where a constant-velocity filter of its estimates has it (:class:`Smoothed`, a
    Kalman filter per crowd id): its estimates' noise from frame to frame is what its track's scatter within
    ``scatter_fast_s`` measures (until there is such a measure, its track too young for it or for a velocity,
