@@ -10,7 +10,8 @@ scores) and keeps, per frame, the estimates the localizer groups, the truth and 
 header (``OUT_DIR/<scenario>__seed<N>.pkl``). ``replay`` feeds every recording in ``OUT_DIR`` through
 ``report_crowds`` with the code on the path (and the config's fields set as given), builds the Crowds
 messages as the localizer node does, scores them with :class:`uvteam.scoring.BusScorer`, and prints
-the figures per scenario and seed. Open loop: the UGVs, which plan from the crowds, drove as they did
+the figures per scenario and seed, and the coverage by how many crowds the scoring has and the team
+reports in a frame (session 49). Open loop: the UGVs, which plan from the crowds, drove as they did
 in the recorded run. Replayed with the code that recorded it, every error and radius is the run's.
 """
 
@@ -90,10 +91,26 @@ def main(argv: list[str]) -> None:
         print(f"{scenario}: mean {s['mean_m']:.3f} m, p95 {s['p95_m']:.2f}, max {s['max_m']:.2f}, recall "
               f"{s['recall']:.3f}, false crowds {s['false_crowds']}, UGV as crowd {s['ugv_as_crowd']}, "
               f"in 95 % radius {s['coverage95']:.3f}, id changes {s['id_changes']}")
+        print(f"    median radius {np.median(np.concatenate([b.radius95_m for _, b in boards])):.2f} m")
         for seed, b in sorted(boards, key=lambda x: x[0]):
             e, r = np.asarray(b.errors_m), np.asarray(b.radius95_m)
             print(f"    seed {seed}: mean {e.mean():.3f} max {e.max():.2f} false {b.false_crowds} "
                   f"in radius {np.mean(e <= r):.3f} id changes {b.id_changes}")
+        for (scored, told), (n, inside) in sorted(_by_frame_kind([b for _, b in boards]).items()):
+            print(f"    crowds scored {scored}, reported {told}: {n} crowd-frames, {inside / n:.3f} in the radius")
+
+
+def _by_frame_kind(boards: list[Scoreboard]) -> dict[tuple[int, int], tuple[int, int]]:
+    """The crowd-frames scored, and how many lie in their radius, by how many crowds the scoring has in the frame
+    and how many the team reports (3 for three or more)."""
+    kinds: dict[tuple[int, int], tuple[int, int]] = {}
+    for b in boards:
+        of_frame = {round(t, 2): (scored, min(told, 3)) for t, scored, _, told in b.frame_log}
+        for t, e, r in zip(b.times_s, b.errors_m, b.radius95_m):
+            k = of_frame[round(t, 2)]
+            n, inside = kinds.get(k, (0, 0))
+            kinds[k] = (n + 1, inside + (e <= r))
+    return kinds
 
 
 if __name__ == "__main__":
