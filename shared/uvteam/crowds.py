@@ -833,7 +833,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     joined = _joined_after(state.joined, [trk[k].track_id for k in parts], labels, live)
     for k, g in zip(parts, labels):
         groups.setdefault(g, []).append(k)
-    out, of_lead, in_parts = [], {}, {}
+    out, of_lead, apart_now = [], {}, {}
     once = [k for k in range(len(trk)) if trk[k].hits < cfg.confirm_hits - 1 and k not in of_part]
     for members in groups.values():
         if not any(k in confirmed for k in members):    # young parts join a crowd; alone they are none
@@ -844,13 +844,13 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
         out.append(ReportedCrowd(_merge([estimates[k] for k in members]), trk[lead], trk[lead].track_id))
         of_lead[trk[lead].track_id] = [trk[k].track_id for k in members]
         if (apart_parts := _parts_apart([estimates[k] for k in members])) is not None:
-            in_parts[trk[lead].track_id] = apart_parts
+            apart_now[trk[lead].track_id] = apart_parts
     out, last_seen, alias, coasted, inside, still_two = _remembered(
         state, out, stamp_s, cfg, live, frozenset(holds), frozenset(released),
         {trk[k].track_id: cid for k, (_, cid) in came_out.items()})
     crowd_of = {t: c for t, c in state.crowd_of.items() if t in live}
     crowd_of.update((t, r.crowd_id) for r in out for t in of_lead[r.track.track_id])
-    out, in_parts = _may_be_two(state.in_parts, out, in_parts, stamp_s, cfg)
+    out, in_parts = _may_be_two(state.in_parts, out, apart_now, stamp_s, cfg)
     out = _mingling(out + coasted, cfg)
     out.sort(key=lambda c: (-c.track.hits, c.crowd_id))
     apart = frozenset(p for p in apart if p[0] in live and p[1] in live)   # forgotten with either track
