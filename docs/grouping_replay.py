@@ -4,6 +4,7 @@ minute. A diagnostic for docs/results-worlds.md (session 27); not part of the pr
 
     record: .venv/bin/python docs/grouping_replay.py record OUT_DIR SCENARIO.toml SEED...
     replay: .venv/bin/python docs/grouping_replay.py replay OUT_DIR [GroupingConfig field=value ...]
+    time:   .venv/bin/python docs/grouping_replay.py time OUT_DIR   (CPU time of report_crowds per frame)
 
 ``record`` runs each seed as ``uvteam experiment --detector pixels`` does (:class:`SimTeam`, the same
 scores) and keeps, per frame, the estimates the localizer groups, the truth and the Crowds message's
@@ -19,6 +20,7 @@ import glob
 import os
 import pickle
 import sys
+import time
 from dataclasses import replace
 
 import numpy as np
@@ -77,9 +79,30 @@ def replay(path: str, fields: dict) -> Scoreboard:
     return scorer.finish()
 
 
+def cpu_time(out_dir: str) -> None:
+    """The CPU time ``report_crowds`` takes per frame over every recording in ``out_dir``, nothing else timed
+    (run it pinned to one core, alternating the code versions compared)."""
+    frames = []
+    for p in sorted(glob.glob(os.path.join(out_dir, "*.pkl"))):
+        with open(p, "rb") as f:
+            rec = pickle.load(f)
+        frames.append((GroupingConfig(confirm_hits=rec["confirm_hits"]),
+                       [(e, s) for kind, e, s in rec["events"] if kind == "frame"]))
+    n, t0 = 0, time.process_time()
+    for cfg, run in frames:
+        state = GroupingState()
+        for estimates, stamp_s in run:
+            state, _ = report_crowds(state, estimates, stamp_s, cfg)
+        n += len(run)
+    print(f"report_crowds: {(time.process_time() - t0) / max(n, 1) * 1e6:.0f} us a frame over {n} frames")
+
+
 def main(argv: list[str]) -> None:
     if argv[0] == "record":
         record(argv[1], argv[2], [int(s) for s in argv[3:]])
+        return
+    if argv[0] == "time":
+        cpu_time(argv[1])
         return
     fields = {k: float(v) for k, v in (a.split("=", 1) for a in argv[2:])}
     runs: dict[str, list[tuple[int, Scoreboard]]] = {}
