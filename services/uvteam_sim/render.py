@@ -31,10 +31,9 @@ What a frame holds, and how it is made (every number here is a modelling choice,
   ``blur_sigma_px`` then blurs the whole image (ground and objects) with a Gaussian, before the noise.
 - **Objects**, drawn in ground coordinates and projected at their height as sub-pixel polygons, each
   pixel taking the share of its area a polygon covers (counted on a 16 x 16 grid in the pixel, as a
-  lens integrates light; ``lens.objects = "area"``, and by default whenever the ground is prefiltered
-  or the world has distractors). OpenCV's own anti-aliased fill (``"opencv"``, the default otherwise,
-  so every frame of ../shared/scenarios renders as it always did) makes still edges flicker under
-  sub-pixel wobble (``_fill``): shadows first (of walkers, UGVs and distractors; sun at 55 deg elevation from the
+  lens integrates light; ``lens.objects = "area"``, the default). OpenCV's own anti-aliased fill
+  (``"opencv"``, which drew every frame of ../shared/scenarios until 2026-12-04 and reproduces them bit
+  for bit) makes still edges flicker under sub-pixel wobble (``_fill``): shadows first (of walkers, UGVs and distractors; sun at 55 deg elevation from the
   south-east, shadows darken the ground to 55 %), then the distractors (``uvteam_sim.world``:
   painted squares; parked vehicles and flat-roofed sheds drawn as their walls, the convex hull of
   base and top at 70 % of the top's grey, then their top, then the label-coloured patch of
@@ -127,8 +126,8 @@ def _fill(img: np.ndarray, poly: np.ndarray, value) -> None:
 
 
 def _fill_opencv(img: np.ndarray, poly: np.ndarray, value) -> None:
-    """OpenCV's anti-aliased fill, as objects were drawn before ``_fill``: what ``lens.objects = "auto"``
-    keeps for the procedural ground with no distractors (every frame of ../shared/scenarios as it was)."""
+    """OpenCV's anti-aliased fill, as objects were drawn before ``_fill``: ``lens.objects = "opencv"``
+    (the frames of ../shared/scenarios as drawn until 2026-12-04)."""
     cv2.fillPoly(img, [poly], value, cv2.LINE_AA, _SHIFT)
 
 
