@@ -1,0 +1,61 @@
+"""Does a crowd's velocity from corners on its walkers follow its blob when walkers go out of sight? A probe for
+docs/results-worlds.md (session 50); not part of the product. Use it on tuning seeds or to trace a figure already
+reported.
+
+    .venv/bin/python docs/flow_velocity_probe.py scenarios/real-alt120-lm6.toml 1 10 14     # a crowd seen whole
+    .venv/bin/python docs/flow_velocity_probe.py scenarios/real-alt120-lm6.toml 9 0.5 6     # the canopy spell
+
+Runs one seed as `docs/blob_flow_probe.py` does (its frames and walkers' pixels). Every second frame, over the last
+``LAG`` frames: the camera's motion (corners over the whole frame, pyramidal Lucas-Kanade, a RANSAC homography),
+corners in the box round the walkers (10 px margin) followed the same way and checked backward to 0.5 px, and of
+those that moved more than ``MOVED_PX`` against the ground, the median motion; beside it the walkers' own median
+motion and that of their centroid (px over ``LAG`` frames; image y grows southwards).
+"""
+
+import sys
+
+import cv2
+import numpy as np
+from blob_flow_probe import capture
+
+LAG = 5
+MOVED_PX = 2.0
+
+
+def ground_motion(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The homography taking frame ``a``'s ground onto frame ``b``'s."""
+    p0 = cv2.goodFeaturesToTrack(a, 800, 0.01, 8)
+    p1, st, _ = cv2.calcOpticalFlowPyrLK(a, b, p0, None, winSize=(21, 21), maxLevel=3)
+    ok = st.ravel() == 1
+    H, _ = cv2.findHomography(p0[ok], p1[ok], cv2.RANSAC, 1.0)
+    return H
+
+
+def probe(rows) -> None:
+    for j in range(LAG, len(rows), 2):
+        (t, b, _), (_, a, walkers) = rows[j], rows[j - LAG]
+        H = ground_motion(a, b)
+        ma, mb = np.vstack(walkers).astype(np.float32), np.vstack(rows[j][2]).astype(np.float32)
+        on_ground = cv2.perspectiveTransform(ma.reshape(-1, 1, 2), H).reshape(-1, 2)
+        walkers_px = np.median(mb - on_ground, 0)
+        centroid_px = mb.mean(0) - on_ground.mean(0)
+        x0, y0 = np.maximum(np.floor(ma.min(0) - 10), 0).astype(int)
+        x1, y1 = np.ceil(ma.max(0) + 10).astype(int)
+        mask = np.zeros_like(a)
+        mask[y0:y1, x0:x1] = 255
+        q0 = cv2.goodFeaturesToTrack(a, 400, 0.005, 3, mask=mask)
+        q1, st, _ = cv2.calcOpticalFlowPyrLK(a, b, q0, None, winSize=(9, 9), maxLevel=2)
+        qb, _, _ = cv2.calcOpticalFlowPyrLK(b, a, q1, None, winSize=(9, 9), maxLevel=2)
+        good = (st.ravel() == 1) & (np.hypot(*(qb - q0).reshape(-1, 2).T) < 0.5)
+        q0, q1 = q0[good].reshape(-1, 2), q1[good].reshape(-1, 2)
+        moved = q1 - cv2.perspectiveTransform(q0.reshape(-1, 1, 2), H).reshape(-1, 2)
+        keep = np.hypot(*moved.T) > MOVED_PX
+        corners_px = np.median(moved[keep], 0) if keep.any() else np.full(2, np.nan)
+        print(f"t {t:4.1f} s: walkers' median {walkers_px.round(1)}, their centroid {centroid_px.round(1)}, "
+              f"{keep.sum():3d} corners moved, their median {corners_px.round(1)} px over {LAG} frames")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 5:
+        raise SystemExit(__doc__)
+    probe(capture(sys.argv[1], int(sys.argv[2]), float(sys.argv[3]), float(sys.argv[4])))
