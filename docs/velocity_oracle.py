@@ -1,0 +1,79 @@
+"""What a crowd velocity that does not follow its blob could buy, bounded from above: the grouping replayed on
+recordings (`docs/grouping_replay.py record`) with each crowd seen placed through a complementary filter driven by
+the true crowd's velocity, made worse as a measured one would be (slowed by ``BIAS``, white noise ``SIGMA_V`` m/s
+per axis): ``x <- x + v dt``, then ``x <- x + ALPHA (z - x)``, ``z`` the position the team reports now. One-crowd
+worlds only; crowds held by their walk (step 6) are left as they are. A diagnostic for docs/results-worlds.md
+(session 50); not part of the product.
+
+    .venv/bin/python docs/velocity_oracle.py ALPHA BIAS SIGMA_V REC/*.pkl      # ALPHA 1: the recording as run
+"""
+
+import os
+import pickle
+import sys
+from dataclasses import replace
+
+import numpy as np
+
+import uvteam.nodes.localizer as node_module
+from uvteam.crowds import GroupingConfig, GroupingState, report_crowds
+from uvteam.scoring import BusScorer, Scoreboard
+
+GAP_S = 0.5     # a crowd unseen longer starts its filter afresh
+
+
+def replay(path: str, alpha: float, bias: float, sigma_v: float, rng: np.random.Generator) -> Scoreboard:
+    with open(path, "rb") as f:
+        rec = pickle.load(f)
+    cfg = GroupingConfig(confirm_hits=rec["confirm_hits"])
+    frame, scorer, state, reported = rec["frame"], BusScorer(rec["scored_in"], Scoreboard()), GroupingState(), []
+    truth: list[tuple[float, np.ndarray]] = []     # (stamp s, the one crowd's east/north m)
+    filt: dict[int, tuple[float, np.ndarray]] = {}
+    for kind, a, b in rec["events"]:
+        if kind == "frame":
+            state, reported = report_crowds(state, a, b, cfg)
+            if alpha < 1.0 and len(truth) >= 2:
+                (t0, p0), (t1, p1) = truth[-2], truth[-1]
+                v_true = (p1 - p0) / max(t1 - t0, 1e-3)
+                out = []
+                for r in reported:
+                    z = np.array([r.estimate.east_m, r.estimate.north_m])
+                    if r.unseen_s > 0.0:
+                        filt.pop(r.crowd_id, None)
+                        out.append(r)
+                        continue
+                    prev = filt.get(r.crowd_id)
+                    if prev is None or b - prev[0] > GAP_S:
+                        x = z
+                    else:
+                        x = prev[1] + (v_true * (1.0 - bias) + rng.normal(0.0, sigma_v, 2)) * (b - prev[0])
+                        x = x + alpha * (z - x)
+                    filt[r.crowd_id] = (b, x)
+                    out.append(replace(r, estimate=replace(r.estimate, east_m=float(x[0]), north_m=float(x[1]))))
+                reported = out
+        elif kind == "truth":
+            scorer.on_truth(a, b)
+            if len(b.crowds) == 1:
+                truth.append((b.stamp_s, scorer._en([b.crowds[0].lat_deg], [b.crowds[0].lon_deg])[0]))
+        else:
+            scorer.on_crowds(a, replace(b, crowds=tuple(node_module.crowd_message(frame, r) for r in reported)))
+    return scorer.finish()
+
+
+def main(argv: list[str]) -> None:
+    alpha, bias, sigma_v = (float(v) for v in argv[:3])
+    means, maxima = [], []
+    for p in argv[3:]:
+        board = replay(p, alpha, bias, sigma_v, np.random.default_rng(1))
+        e, t = np.asarray(board.errors_m), np.asarray(board.times_s)
+        means.append(e.mean())
+        maxima.append(e.max())
+        print(f"{os.path.basename(p)[:-4]}: mean {e.mean():.3f} m, p95 {np.percentile(e, 95):.2f}, "
+              f"max {e.max():.2f} at {t[e.argmax()]:.1f} s")
+    print(f"{len(means)} recordings: mean of their means {np.mean(means):.3f} m, max {max(maxima):.2f} m")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) < 5:
+        raise SystemExit(__doc__)
+    main(sys.argv[1:])
