@@ -59,6 +59,24 @@ def capture(path: str, seed: int, t0_s: float, t1_s: float):
     return rows
 
 
+def moving_corners(a: np.ndarray, b: np.ndarray, H: np.ndarray, box: tuple[int, int, int, int],
+                   back_px: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Corners of frame ``a`` inside ``box`` (x0, y0, x1, y1) followed into ``b`` (pyramidal Lucas-Kanade; with
+    ``back_px``, kept only where the backward track returns within it): their positions in ``a`` and their motion
+    against the ground (``H``: ``a``'s ground onto ``b``'s), in pixels."""
+    x0, y0, x1, y1 = box
+    mask = np.zeros_like(a)
+    mask[y0:y1, x0:x1] = 255
+    q0 = cv2.goodFeaturesToTrack(a, 400, 0.005, 3, mask=mask)
+    q1, st, _ = cv2.calcOpticalFlowPyrLK(a, b, q0, None, winSize=(9, 9), maxLevel=2)
+    ok = st.ravel() == 1
+    if back_px is not None:
+        qb, _, _ = cv2.calcOpticalFlowPyrLK(b, a, q1, None, winSize=(9, 9), maxLevel=2)
+        ok &= np.hypot(*(qb - q0).reshape(-1, 2).T) < back_px
+    q0, q1 = q0[ok].reshape(-1, 2), q1[ok].reshape(-1, 2)
+    return q0, q1 - cv2.perspectiveTransform(q0.reshape(-1, 1, 2), H).reshape(-1, 2)
+
+
 def probe(rows) -> None:
     for j in range(LAG_FRAMES, len(rows), 5):
         (t, b, _), (_, a, walkers) = rows[j], rows[j - LAG_FRAMES]
@@ -70,12 +88,7 @@ def probe(rows) -> None:
         who = np.concatenate([np.full(len(w), k) for k, w in enumerate(walkers)])
         x0, y0 = np.maximum(np.floor(mem.min(0) - 15), 0).astype(int)
         x1, y1 = np.ceil(mem.max(0) + 15).astype(int)
-        mask = np.zeros_like(a)
-        mask[y0:y1, x0:x1] = 255
-        q0 = cv2.goodFeaturesToTrack(a, 400, 0.005, 3, mask=mask)
-        q1, st, _ = cv2.calcOpticalFlowPyrLK(a, b, q0, None, winSize=(9, 9), maxLevel=2)
-        q0, q1 = q0[st.ravel() == 1].reshape(-1, 2), q1[st.ravel() == 1].reshape(-1, 2)
-        moved = q1 - cv2.perspectiveTransform(q0.reshape(-1, 1, 2), H).reshape(-1, 2)
+        q0, moved = moving_corners(a, b, H, (x0, y0, x1, y1))
         keep = np.hypot(*moved.T) > MOVED_PX
         q, r = q0[keep], moved[keep]
         _, half, _ = cv2.kmeans(q.astype(np.float32), 2, None,

@@ -16,7 +16,7 @@ import sys
 
 import cv2
 import numpy as np
-from blob_flow_probe import capture
+from blob_flow_probe import capture, moving_corners
 
 LAG = 5
 MOVED_PX = 2.0
@@ -32,6 +32,7 @@ def ground_motion(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def probe(rows) -> None:
+    pairs = []
     for j in range(LAG, len(rows), 2):
         (t, b, _), (_, a, walkers) = rows[j], rows[j - LAG]
         H = ground_motion(a, b)
@@ -41,18 +42,21 @@ def probe(rows) -> None:
         centroid_px = mb.mean(0) - on_ground.mean(0)
         x0, y0 = np.maximum(np.floor(ma.min(0) - 10), 0).astype(int)
         x1, y1 = np.ceil(ma.max(0) + 10).astype(int)
-        mask = np.zeros_like(a)
-        mask[y0:y1, x0:x1] = 255
-        q0 = cv2.goodFeaturesToTrack(a, 400, 0.005, 3, mask=mask)
-        q1, st, _ = cv2.calcOpticalFlowPyrLK(a, b, q0, None, winSize=(9, 9), maxLevel=2)
-        qb, _, _ = cv2.calcOpticalFlowPyrLK(b, a, q1, None, winSize=(9, 9), maxLevel=2)
-        good = (st.ravel() == 1) & (np.hypot(*(qb - q0).reshape(-1, 2).T) < 0.5)
-        q0, q1 = q0[good].reshape(-1, 2), q1[good].reshape(-1, 2)
-        moved = q1 - cv2.perspectiveTransform(q0.reshape(-1, 1, 2), H).reshape(-1, 2)
+        _, moved = moving_corners(a, b, H, (x0, y0, x1, y1), back_px=0.5)
         keep = np.hypot(*moved.T) > MOVED_PX
         corners_px = np.median(moved[keep], 0) if keep.any() else np.full(2, np.nan)
         print(f"t {t:4.1f} s: walkers' median {walkers_px.round(1)}, their centroid {centroid_px.round(1)}, "
               f"{keep.sum():3d} corners moved, their median {corners_px.round(1)} px over {LAG} frames")
+        if keep.any():
+            pairs.append((walkers_px, corners_px))
+    if pairs:
+        w, c = (np.array(x) for x in zip(*pairs))
+        d = c - w
+        off = np.hypot(*d.T)
+        print(f"{len(pairs)} windows with corners: speed ratio (corners / walkers) median "
+              f"{np.median(np.hypot(*c.T) / np.hypot(*w.T)):.2f}, difference median {np.median(d, 0).round(2)} px, "
+              f"median absolute {np.median(np.abs(d), 0).round(2)} px, RMS {np.sqrt((d ** 2).mean(0)).round(2)} px, "
+              f"over 2 px off in {np.mean(off > 2.0):.2f} of windows")
 
 
 if __name__ == "__main__":
