@@ -27,8 +27,10 @@ LAG_FRAMES = 5
 MOVED_PX = 2.0
 
 
-def capture(path: str, seed: int, t0_s: float, t1_s: float):
-    """(times s, grey frames, per frame a list of each crowd's walkers in pixels) between t0_s and t1_s."""
+def capture(path: str, seed: int, t0_s: float, t1_s: float, blobs: list | None = None):
+    """(times s, grey frames, per frame a list of each crowd's walkers in pixels) between t0_s and t1_s; with
+    ``blobs``, the boxes (x0, y0, x1, y1) of the motion detector's crowd blobs in each of those frames appended
+    to it."""
     team = SimTeam(load_scenario(path), seed, "pixels")
     world = team.sim.world
     first, pose, rows = [], {}, []
@@ -48,6 +50,10 @@ def capture(path: str, seed: int, t0_s: float, t1_s: float):
                                        np.column_stack([m, world.terrain_up_m(m) + PERSON_CENTRE_HEIGHT_M])))
             grey = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
             rows.append((stamp_s - first[0], grey.copy(), walkers))
+            res = update(det, img, stamp_s, *a, **k)
+            if blobs is not None:
+                blobs.append(res.blobs.xyxy_px[res.carved < 0])
+            return res
         return update(det, img, stamp_s, *a, **k)
 
     team.renderer.render = on_render
