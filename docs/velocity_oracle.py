@@ -1,11 +1,13 @@
 """What a crowd velocity that does not follow its blob could buy, bounded from above: the grouping replayed on
 recordings (`docs/grouping_replay.py record`) with each crowd seen placed through a complementary filter driven by
 the true crowd's velocity, made worse as a measured one would be (slowed by ``BIAS``, white noise ``SIGMA_V`` m/s
-per axis): ``x <- x + v dt``, then ``x <- x + ALPHA (z - x)``, ``z`` the position the team reports now. One-crowd
+per axis, and in a share ``OUTLIERS`` of frames another ``OUTLIER_SIGMA_V``): ``x <- x + v dt``, then
+``x <- x + ALPHA (z - x)``, ``z`` the position the team reports now. One-crowd
 worlds only; crowds held by their walk (step 6) are left as they are. A diagnostic for docs/results-worlds.md
 (session 50); not part of the product.
 
     .venv/bin/python docs/velocity_oracle.py ALPHA BIAS SIGMA_V REC/*.pkl      # ALPHA 1: the recording as run
+    .venv/bin/python docs/velocity_oracle.py ALPHA BIAS SIGMA_V OUTLIERS OUTLIER_SIGMA_V REC/*.pkl
 """
 
 import os
@@ -22,7 +24,8 @@ from uvteam.scoring import BusScorer, Scoreboard
 GAP_S = 0.5     # a crowd unseen longer starts its filter afresh
 
 
-def replay(path: str, alpha: float, bias: float, sigma_v: float, rng: np.random.Generator) -> Scoreboard:
+def replay(path: str, alpha: float, bias: float, sigma_v: float, rng: np.random.Generator,
+           outliers: float = 0.0, outlier_sigma_v: float = 0.0) -> Scoreboard:
     with open(path, "rb") as f:
         rec = pickle.load(f)
     cfg = GroupingConfig(confirm_hits=rec["confirm_hits"])
@@ -46,7 +49,10 @@ def replay(path: str, alpha: float, bias: float, sigma_v: float, rng: np.random.
                     if prev is None or b - prev[0] > GAP_S:
                         x = z
                     else:
-                        x = prev[1] + (v_true * (1.0 - bias) + rng.normal(0.0, sigma_v, 2)) * (b - prev[0])
+                        v = v_true * (1.0 - bias) + rng.normal(0.0, sigma_v, 2)
+                        if outliers > 0.0 and rng.random() < outliers:
+                            v = v + rng.normal(0.0, outlier_sigma_v, 2)
+                        x = prev[1] + v * (b - prev[0])
                         x = x + alpha * (z - x)
                     filt[r.crowd_id] = (b, x)
                     out.append(replace(r, estimate=replace(r.estimate, east_m=float(x[0]), north_m=float(x[1]))))
@@ -61,10 +67,11 @@ def replay(path: str, alpha: float, bias: float, sigma_v: float, rng: np.random.
 
 
 def main(argv: list[str]) -> None:
-    alpha, bias, sigma_v = (float(v) for v in argv[:3])
+    k = next((i for i, a in enumerate(argv) if a.endswith(".pkl")), len(argv))
+    alpha, bias, sigma_v, outliers, outlier_sigma_v = ([float(v) for v in argv[:k]] + [0.0, 0.0])[:5]
     means, maxima = [], []
-    for p in argv[3:]:
-        board = replay(p, alpha, bias, sigma_v, np.random.default_rng(1))
+    for p in argv[k:]:
+        board = replay(p, alpha, bias, sigma_v, np.random.default_rng(1), outliers, outlier_sigma_v)
         e, t = np.asarray(board.errors_m), np.asarray(board.times_s)
         means.append(e.mean())
         maxima.append(e.max())
@@ -74,6 +81,6 @@ def main(argv: list[str]) -> None:
 
 
 if __name__ == "__main__":
-    if len(sys.argv) < 5:
+    if len(sys.argv) < 5 or not sys.argv[-1].endswith(".pkl"):
         raise SystemExit(__doc__)
     main(sys.argv[1:])
