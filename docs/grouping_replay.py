@@ -63,16 +63,23 @@ def record(out_dir: str, path: str, seeds: list[int]) -> None:
               flush=True)
 
 
-def replay(path: str, fields: dict) -> Scoreboard:
+def replay(path: str, fields: dict, adjust=None) -> Scoreboard:
+    """One recording through ``report_crowds`` and the scoring. ``adjust(stamp_s, reported, truths, scorer)``, if
+    given, returns each frame's reported crowds changed (``truths``: the truth messages so far) before they are
+    scored (``docs/velocity_oracle.py``)."""
     with open(path, "rb") as f:
         rec = pickle.load(f)
     cfg = GroupingConfig(**{"confirm_hits": rec["confirm_hits"], **fields})
     frame, scorer, state, reported = rec["frame"], BusScorer(rec["scored_in"], Scoreboard()), GroupingState(), []
+    truths = []
     for kind, key_or_estimates, msg_or_stamp in rec["events"]:
         if kind == "frame":
             state, reported = report_crowds(state, key_or_estimates, msg_or_stamp, cfg)
+            if adjust is not None:
+                reported = adjust(msg_or_stamp, reported, truths, scorer)
         elif kind == "truth":
             scorer.on_truth(key_or_estimates, msg_or_stamp)
+            truths.append(msg_or_stamp)
         else:     # the Crowds message as the localizer node builds it
             scorer.on_crowds(key_or_estimates, replace(msg_or_stamp, crowds=tuple(
                 node_module.crowd_message(frame, r) for r in reported)))

@@ -11,59 +11,49 @@ worlds only; crowds held by their walk (step 6) are left as they are. A diagnost
 """
 
 import os
-import pickle
 import sys
 from dataclasses import replace
+from itertools import islice
 
 import numpy as np
 
-import uvteam.nodes.localizer as node_module
-from uvteam.crowds import GroupingConfig, GroupingState, report_crowds
-from uvteam.scoring import BusScorer, Scoreboard
+from grouping_replay import replay
 
 GAP_S = 0.5     # a crowd unseen longer starts its filter afresh
 
 
-def replay(path: str, alpha: float, bias: float, sigma_v: float, rng: np.random.Generator,
-           outliers: float = 0.0, outlier_sigma_v: float = 0.0) -> Scoreboard:
-    with open(path, "rb") as f:
-        rec = pickle.load(f)
-    cfg = GroupingConfig(confirm_hits=rec["confirm_hits"])
-    frame, scorer, state, reported = rec["frame"], BusScorer(rec["scored_in"], Scoreboard()), GroupingState(), []
-    truth: list[tuple[float, np.ndarray]] = []     # (stamp s, the one crowd's east/north m)
+def complementary(alpha: float, bias: float, sigma_v: float, rng: np.random.Generator, outliers: float = 0.0,
+                  outlier_sigma_v: float = 0.0):
+    """The ``adjust`` of :func:`grouping_replay.replay` that places each crowd seen by the filter above."""
     filt: dict[int, tuple[float, np.ndarray]] = {}
-    for kind, a, b in rec["events"]:
-        if kind == "frame":
-            state, reported = report_crowds(state, a, b, cfg)
-            if alpha < 1.0 and len(truth) >= 2:
-                (t0, p0), (t1, p1) = truth[-2], truth[-1]
-                v_true = (p1 - p0) / max(t1 - t0, 1e-3)
-                out = []
-                for r in reported:
-                    z = np.array([r.estimate.east_m, r.estimate.north_m])
-                    if r.unseen_s > 0.0:
-                        filt.pop(r.crowd_id, None)
-                        out.append(r)
-                        continue
-                    prev = filt.get(r.crowd_id)
-                    if prev is None or b - prev[0] > GAP_S:
-                        x = z
-                    else:
-                        v = v_true * (1.0 - bias) + rng.normal(0.0, sigma_v, 2)
-                        if outliers > 0.0 and rng.random() < outliers:
-                            v = v + rng.normal(0.0, outlier_sigma_v, 2)
-                        x = prev[1] + v * (b - prev[0])
-                        x = x + alpha * (z - x)
-                    filt[r.crowd_id] = (b, x)
-                    out.append(replace(r, estimate=replace(r.estimate, east_m=float(x[0]), north_m=float(x[1]))))
-                reported = out
-        elif kind == "truth":
-            scorer.on_truth(a, b)
-            if len(b.crowds) == 1:
-                truth.append((b.stamp_s, scorer._en([b.crowds[0].lat_deg], [b.crowds[0].lon_deg])[0]))
-        else:
-            scorer.on_crowds(a, replace(b, crowds=tuple(node_module.crowd_message(frame, r) for r in reported)))
-    return scorer.finish()
+
+    def adjust(stamp_s, reported, truths, scorer):
+        ones = list(islice((m for m in reversed(truths) if len(m.crowds) == 1), 2))[::-1]   # its last two truths
+        if alpha >= 1.0 or len(ones) < 2:
+            return reported
+        (t0, p0), (t1, p1) = ((m.stamp_s, scorer._en([m.crowds[0].lat_deg], [m.crowds[0].lon_deg])[0]) for m in ones)
+        v_true = (p1 - p0) / max(t1 - t0, 1e-3)
+        out = []
+        for r in reported:
+            z = np.array([r.estimate.east_m, r.estimate.north_m])
+            if r.unseen_s > 0.0:
+                filt.pop(r.crowd_id, None)
+                out.append(r)
+                continue
+            prev = filt.get(r.crowd_id)
+            if prev is None or stamp_s - prev[0] > GAP_S:
+                x = z
+            else:
+                v = v_true * (1.0 - bias) + rng.normal(0.0, sigma_v, 2)
+                if outliers > 0.0 and rng.random() < outliers:
+                    v = v + rng.normal(0.0, outlier_sigma_v, 2)
+                x = prev[1] + v * (stamp_s - prev[0])
+                x = x + alpha * (z - x)
+            filt[r.crowd_id] = (stamp_s, x)
+            out.append(replace(r, estimate=replace(r.estimate, east_m=float(x[0]), north_m=float(x[1]))))
+        return out
+
+    return adjust
 
 
 def main(argv: list[str]) -> None:
@@ -71,7 +61,8 @@ def main(argv: list[str]) -> None:
     alpha, bias, sigma_v, outliers, outlier_sigma_v = ([float(v) for v in argv[:k]] + [0.0, 0.0])[:5]
     means, maxima = [], []
     for p in argv[k:]:
-        board = replay(p, alpha, bias, sigma_v, np.random.default_rng(1), outliers, outlier_sigma_v)
+        board = replay(p, {}, complementary(alpha, bias, sigma_v, np.random.default_rng(1), outliers,
+                                            outlier_sigma_v))
         e, t = np.asarray(board.errors_m), np.asarray(board.times_s)
         means.append(e.mean())
         maxima.append(e.max())
