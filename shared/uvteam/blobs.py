@@ -10,6 +10,9 @@ with one row per blob, checked on construction, filtered with a boolean mask or 
 
 ``ugv`` names what the detector recognised in a blob: the roof label's color inside the vision
 pipeline, the UGV's id once the UAV service has relabelled it (:meth:`Blobs.relabel`), "" for none.
+``v_px_s`` and ``sigma_v_px_s``, when the detector measures them (:mod:`uvteam.vision.blob_velocity`),
+are each blob's walkers' velocity against the ground in the frame's pixels and its 1-sigma spread per
+axis, a spread of 0 where it was not measured; no rows at all when the detector measures none.
 """
 
 from __future__ import annotations
@@ -58,11 +61,14 @@ def _check_labels(name: str, labels, n: int) -> tuple[str, ...]:
 class Blobs:
     """Motion blobs: centre, box (origin top-left, x0 <= x1, y0 <= y1), moving pixels, recognised UGV."""
 
-    SCHEMA: ClassVar[str] = "blobs/1"
+    SCHEMA: ClassVar[str] = "blobs/2"
     xy_px: Annotated[np.ndarray, Columns(2)] = field(default_factory=lambda: np.empty((0, 2)))
     xyxy_px: Annotated[np.ndarray, Columns(4)] = field(default_factory=lambda: np.empty((0, 4)))
     area_px: Annotated[np.ndarray, Columns(0)] = field(default_factory=lambda: np.empty(0))
     ugv: tuple[str, ...] = ()
+    # the walkers' velocity against the ground (px/s; no rows: not measured), its 1-sigma spread (0: not measured)
+    v_px_s: Annotated[np.ndarray, Columns(2)] = field(default_factory=lambda: np.empty((0, 2)))
+    sigma_v_px_s: Annotated[np.ndarray, Columns(0)] = field(default_factory=lambda: np.empty(0))
 
     def __post_init__(self) -> None:
         xy = _array("xy_px", self.xy_px, 2)
@@ -77,6 +83,14 @@ class Blobs:
         if (area < 0).any():
             raise ValueError("area_px: a negative area")
         ugv = _check_labels("ugv", self.ugv if self.ugv else ("",) * n, n)
+        v, sv = _array("v_px_s", self.v_px_s, 2), _array("sigma_v_px_s", self.sigma_v_px_s, 0)
+        if len(v) != len(sv) or len(v) not in (0, n):
+            raise ValueError(f"v_px_s: none, or one row per blob in v_px_s and sigma_v_px_s, got {len(v)} and "
+                             f"{len(sv)} for {n} blobs")
+        if (sv < 0).any():
+            raise ValueError("sigma_v_px_s: a negative spread")
+        object.__setattr__(self, "v_px_s", v)
+        object.__setattr__(self, "sigma_v_px_s", sv)
         object.__setattr__(self, "xy_px", xy)
         object.__setattr__(self, "xyxy_px", box)
         object.__setattr__(self, "area_px", area)
@@ -93,15 +107,29 @@ class Blobs:
         """Rows by a boolean mask or an index array (a new Blobs)."""
         idx = np.flatnonzero(np.asarray(sel, bool)) if np.asarray(sel).dtype == bool else np.asarray(sel, int)
         idx = idx.reshape(-1)
-        return Blobs(self.xy_px[idx], self.xyxy_px[idx], self.area_px[idx], tuple(self.ugv[i] for i in idx))
+        measured = len(self.v_px_s) > 0
+        return Blobs(self.xy_px[idx], self.xyxy_px[idx], self.area_px[idx], tuple(self.ugv[i] for i in idx),
+                     self.v_px_s[idx] if measured else self.v_px_s, self.sigma_v_px_s[idx] if measured else self.sigma_v_px_s)
 
     def relabel(self, names: Mapping[str, str]) -> "Blobs":
         """The same blobs with each label mapped through ``names`` (a label not in it becomes "")."""
-        return Blobs(self.xy_px, self.xyxy_px, self.area_px, tuple(names.get(u, "") if u else "" for u in self.ugv))
+        return Blobs(self.xy_px, self.xyxy_px, self.area_px, tuple(names.get(u, "") if u else "" for u in self.ugv),
+                     self.v_px_s, self.sigma_v_px_s)
+
+    def with_velocity(self, v_px_s: np.ndarray, sigma_v_px_s: np.ndarray) -> "Blobs":
+        """The same blobs with their walkers' velocities (one row each; spread 0: not measured)."""
+        return Blobs(self.xy_px, self.xyxy_px, self.area_px, self.ugv, v_px_s, sigma_v_px_s)
+
+    def velocity_of(self, i: int) -> tuple[np.ndarray, float] | None:
+        """Blob ``i``'s walkers' velocity (px/s) and its 1-sigma spread per axis, None where not measured."""
+        if not len(self.v_px_s) or not self.sigma_v_px_s[i] > 0:
+            return None
+        return self.v_px_s[i], float(self.sigma_v_px_s[i])
 
     def __eq__(self, other) -> bool:
         return (isinstance(other, Blobs) and self.ugv == other.ugv and np.array_equal(self.xy_px, other.xy_px)
-                and np.array_equal(self.xyxy_px, other.xyxy_px) and np.array_equal(self.area_px, other.area_px))
+                and np.array_equal(self.xyxy_px, other.xyxy_px) and np.array_equal(self.area_px, other.area_px)
+                and np.array_equal(self.v_px_s, other.v_px_s) and np.array_equal(self.sigma_v_px_s, other.sigma_v_px_s))
 
     __hash__ = None  # type: ignore[assignment]
 

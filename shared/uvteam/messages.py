@@ -172,8 +172,8 @@ class Detections:
     worth (1-sigma per axis, pixels). Key: uvteam/<team>/<uav>/detections (UGV ids), and the simulator's
     .../sensor (roof colors, which the UAV service relabels)."""
 
-    SCHEMA: ClassVar[str] = "detections/3"
-    MAX_BYTES: ClassVar[int] = 192 << 10   # 2000 blobs take ~140 kB
+    SCHEMA: ClassVar[str] = "detections/4"
+    MAX_BYTES: ClassVar[int] = 192 << 10   # 2000 blobs take ~132 kB, ~188 kB with velocities
     vehicle: str
     stamp_s: float              # the frame's capture time
     frame_seq: int
@@ -797,13 +797,13 @@ def _build(cls: type, convs: list) -> Callable:
 def _build_blobs(cls: type, convs: list) -> Callable:
     """Blobs without a second pass over its arrays: what ``Blobs.__post_init__`` checks, checked here on
     what msgspec already typed (rows of finite numbers), the rest (lengths, boxes, areas) in one go."""
-    if [f.name for f in fields(cls)] != ["xy_px", "xyxy_px", "area_px", "ugv"]:
+    if [f.name for f in fields(cls)] != ["xy_px", "xyxy_px", "area_px", "ugv", "v_px_s", "sigma_v_px_s"]:
         return _build(cls, convs)      # Blobs changed: construct it the ordinary way
 
     def build(st: Any) -> Blobs:
-        xy, box, area, ugv = st.xy_px, st.xyxy_px, st.area_px, st.ugv
+        xy, box, area, ugv, v, sv = st.xy_px, st.xyxy_px, st.area_px, st.ugv, st.v_px_s, st.sigma_v_px_s
         n = len(xy)
-        if len(box) != n or len(area) != n or (ugv and len(ugv) != n):
+        if len(box) != n or len(area) != n or (ugv and len(ugv) != n) or len(v) != len(sv) or len(v) not in (0, n):
             raise _Refused
         if n:   # msgspec typed the rows (two and four finite numbers each, areas >= 0): no shape to discover
             for x0, y0, x1, y1 in box:    # on the tuples: cheaper than numpy for tens of rows
@@ -819,6 +819,14 @@ def _build_blobs(cls: type, convs: list) -> Callable:
         _set(b, "xyxy_px", a_box)
         _set(b, "area_px", a_area)
         _set(b, "ugv", ugv if ugv else ("",) * n)
+        if len(v):
+            if min(sv) < 0:
+                raise _Refused
+            _set(b, "v_px_s", _fromiter(_chain(v), float, 2 * n).reshape(n, 2))
+            _set(b, "sigma_v_px_s", np.array(sv, float))
+        else:
+            _set(b, "v_px_s", np.empty((0, 2)))
+            _set(b, "sigma_v_px_s", np.empty(0))
         return b
     return build
 

@@ -121,11 +121,11 @@ def test_mutated_payloads_are_judged_alike(data):
 @pytest.mark.parametrize(
     "raw",
     [
-        msgpack.packb({"schema": "detections/3", "data": {**msgpack.unpackb(encode(DET))["data"],
+        msgpack.packb({"schema": "detections/4", "data": {**msgpack.unpackb(encode(DET))["data"],
                                                           "vehicle": "uav1"}}),  # a plain copy
         # a repeated key: msgpack and msgspec both keep the last; over 512 entries msgpack's limit refuses it
-        b"\x82\xa6schema\xacdetections/3\xa4data\xde\x02\x01" + b"\xa7vehicle\xa4uav1" * 513,
-        msgpack.packb({"schema": "detections/3", "data": {"blobs": [[[0]] * 9_000] * 2}}),   # a small bomb
+        b"\x82\xa6schema\xacdetections/4\xa4data\xde\x02\x01" + b"\xa7vehicle\xa4uav1" * 513,
+        msgpack.packb({"schema": "detections/4", "data": {"blobs": [[[0]] * 9_000] * 2}}),   # a small bomb
     ],
 )
 def test_edge_payloads_are_judged_alike(raw):

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from uvteam.blobs import Blobs
 from uvteam.localizer import R95_PER_SIGMA, LocalizerConfig, localize_step, ugv_positions
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "localizer_steps.pkl.gz"
@@ -25,7 +26,10 @@ def _upgraded(x):
     """A state or observation recorded before a field was added: the new fields at their defaults (what
     the recorded step had: the landmarks' noise as declared, the crowds' noise all per frame)."""
     missing = dataclasses.MISSING
-    return type(x)(**{f.name: getattr(x, f.name) for f in dataclasses.fields(x) if getattr(x, f.name, missing) is not missing})
+    kept = {f.name: getattr(x, f.name) for f in dataclasses.fields(x) if getattr(x, f.name, missing) is not missing}
+    if isinstance(kept.get("blobs"), Blobs):    # and the blobs', recorded before they carried velocities
+        kept["blobs"] = _upgraded(kept["blobs"])
+    return type(x)(**kept)
 
 
 @pytest.mark.parametrize("k", range(31))

@@ -41,6 +41,10 @@ def test_nested_round_trip():
     assert back.sigma_crowd_blob_frame_px is None                 # unsaid: all of the crowd noise is per frame
     for part in (0.0, 2.5, 6.3):
         assert decode(Detections, encode(detections(sigma_crowd_blob_frame_px=part))).sigma_crowd_blob_frame_px == part
+    moving = detections(blobs=Blobs(d.blobs.xy_px, d.blobs.xyxy_px, d.blobs.area_px, d.blobs.ugv,
+                                    np.array([[0.0, 0.0], [12.5, -3.0]]), np.array([0.0, 0.8])))
+    back = decode(Detections, encode(moving))
+    assert back == moving and back != d and back.blobs.velocity_of(0) is None and back.blobs.velocity_of(1)[1] == 0.8
     empty = detections(landmarks=Landmarks(), blobs=Blobs.empty())
     assert decode(Detections, encode(empty)) == empty
     p = Plan("ugv1", 1.7e9, (Waypoint(1.7e9 + 1, 31.0, -111.0), Waypoint(1.7e9 + 2, 31.0001, -111.0)))
@@ -135,11 +139,16 @@ DET = msgpack.unpackb(encode(detections()))["data"]
         ({**DET, "sigma_crowd_blob_frame_px": 7.0}, "sigma_crowd_blob_frame_px"),      # more per frame than in all
         ({**DET, "sigma_crowd_blob_frame_px": -0.5}, "sigma_crowd_blob_frame_px"),     # negative noise
         ({**DET, "sigma_crowd_blob_frame_px": float("nan")}, "sigma_crowd_blob_frame_px"),  # no number
+        ({**DET, "blobs": {**DET["blobs"], "v_px_s": [[1.0, 2.0]], "sigma_v_px_s": [0.5]}}, "v_px_s"),  # 1 of 2 blobs
+        ({**DET, "blobs": {**DET["blobs"], "v_px_s": [[1.0, 2.0], [0, 0]], "sigma_v_px_s": [0.5]}}, "v_px_s"),
+        ({**DET, "blobs": {**DET["blobs"], "v_px_s": [[1.0, 2.0], [0, 0]], "sigma_v_px_s": [0.5, -1]}}, "sigma_v_px_s"),
+        ({**DET, "blobs": {**DET["blobs"], "v_px_s": [[1.0, float("inf")], [0, 0]], "sigma_v_px_s": [0.5, 0]}},
+         "v_px_s"),
     ],
 )
 def test_detections_rules(data, field):
     with pytest.raises(MessageError) as e:
-        decode(Detections, wire("detections/3", data))
+        decode(Detections, wire("detections/4", data))
     assert e.value.field == field, e.value
 
 
@@ -169,7 +178,7 @@ def test_a_bomb_costs_little_to_refuse():
     # (without tracing; CPU time, so that other work on a loaded machine does not count)
     for filler in ([], [0], {}):
         n = Detections.MAX_BYTES // (len(msgpack.packb(filler)) * 9_000)
-        bomb = msgpack.packb({"schema": "detections/3", "data": {"blobs": [[filler] * 9_000] * n}})
+        bomb = msgpack.packb({"schema": "detections/4", "data": {"blobs": [[filler] * 9_000] * n}})
         assert len(bomb) <= Detections.MAX_BYTES
         took = []
         for _ in range(3):    # the least of three: a collection of what earlier tests left is not the bomb's
