@@ -74,6 +74,11 @@ Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale``
    the dense part (tuning seed 108 of real-alt60-lm6: 1.9 m RMS from its members' centroid). Its area and
    box stay the blob's. (A piece whose joined area passed the crowd bound of step 5 while its moving pixels
    did not is neither a blob nor a stray: not handled yet.)
+8. each crowd blob's velocity (``velocity_lag_s`` > 0): corners in its box on what moved in the history (off
+   the carved vehicles' discs: a UGV's roof has sharper corners than any walker) followed back about that long
+   on the full-resolution frames, the camera's motion taken out by the chained fits of step 2 and what those
+   leave near the blob by the box's still corners (:mod:`.blob_velocity`); ``Blobs.v_px_s``. A blob's centre
+   drifts as walkers go out of sight or come back; the corners on them do not.
 
 Sizes come from the altitude and the camera (:func:`bounds_for_altitude`), as the paper bounds blobs
 by size and velocity as functions of altitude. Time is passed in; nothing here reads a clock.
@@ -88,6 +93,7 @@ import cv2
 import numpy as np
 
 from ..blobs import Blobs
+from .blob_velocity import VelocityConfig, walkers_velocity
 
 MIN_VEHICLE_AREA_PX = 4.0   # a carved vehicle's blob only needs to be more than noise
 AGE_UNIT_S = 0.01           # the motion history's time step
@@ -146,6 +152,9 @@ class MotionConfig:
     speckle: str = "open"              # "open": open each frame's mask; "neighbours": see update()
     stray_reach: float = 0.0           # strays within this many merge_px of a crowd's box join its centre (step 7; 0: none)
     stray_min_share: float = 1.0 / 12.0  # ... if they are at least this share of min_area_px
+    velocity_lag_s: float = 0.0        # > 0: each crowd blob's walkers' velocity from corners followed back about
+                                       #   this long on the full-resolution frames (step 8; 0: not measured)
+    velocity: VelocityConfig = VelocityConfig()
 
     def __post_init__(self) -> None:
         if not 0.0 < self.history_s <= 2.5:
@@ -168,6 +177,8 @@ class MotionConfig:
             raise ValueError(f"process_scale must be in [0.05, 1], got {self.process_scale}")
         if not 0.0 <= self.lag_s <= 1.0:
             raise ValueError(f"lag_s must be in [0, 1], got {self.lag_s}")
+        if not 0.0 <= self.velocity_lag_s <= 2.0:
+            raise ValueError(f"velocity_lag_s must be in [0, 2], got {self.velocity_lag_s}")
         if not (self.stray_reach >= 0.0 and 0.0 < self.stray_min_share <= 1.0):
             raise ValueError(f"stray_reach must be >= 0 and stray_min_share in (0, 1], got "
                              f"{self.stray_reach}, {self.stray_min_share}")
@@ -236,6 +247,7 @@ class _Registered:
     curr: np.ndarray
     dt_s: float
     registration: Registration | None  # None for a first frame
+    grey: np.ndarray | None = None     # the frame in full-resolution grey, when step 8 needs it
 
 
 @dataclass(frozen=True, slots=True)
@@ -500,6 +512,29 @@ def _windows(boxes: np.ndarray, margin: float, w: int, h: int) -> list[tuple[int
     return [tuple(o) for o in out]
 
 
+def _full_res_mask(mask: np.ndarray, shape: tuple, boxes_xyxy_px: np.ndarray, s: float, margin_px: float) -> np.ndarray:
+    """``mask`` (processed px, scale ``s``) at full resolution (``shape``), widened by a processed pixel, inside
+    the boxes (full-resolution px, with ``margin_px``) only; zero elsewhere."""
+    h, w = shape[:2]
+    out = np.zeros((h, w), np.uint8)
+    wide = cv2.dilate(mask, _K3)
+    for x0, y0, x1, y1 in boxes_xyxy_px:
+        bx0, by0 = max(int(x0 - margin_px), 0), max(int(y0 - margin_px), 0)
+        bx1, by1 = min(int(np.ceil(x1 + margin_px)) + 1, w), min(int(np.ceil(y1 + margin_px)) + 1, h)
+        if bx1 <= bx0 or by1 <= by0:
+            continue
+        px0, py0 = int(bx0 * s), int(by0 * s)
+        px1, py1 = min(int(np.ceil(bx1 * s)) + 1, wide.shape[1]), min(int(np.ceil(by1 * s)) + 1, wide.shape[0])
+        if px1 <= px0 or py1 <= py0:
+            continue
+        crop = cv2.resize(wide[py0:py1, px0:px1], None, fx=1.0 / s, fy=1.0 / s, interpolation=cv2.INTER_NEAREST)
+        ox, oy = int(round(px0 / s)), int(round(py0 / s))
+        ch, cw = min(crop.shape[0], h - oy), min(crop.shape[1], w - ox)
+        region = out[oy:oy + ch, ox:ox + cw]
+        np.maximum(region, crop[:ch, :cw], out=region)
+    return out
+
+
 def _close(mask: np.ndarray, kernel: np.ndarray) -> np.ndarray:
     """A closing of a blob's crop that does not join it to the crop's edge (padded with nothing moving)."""
     pad = kernel.shape[0]
@@ -530,6 +565,9 @@ class MotionDetector:
         # and the lagged test's (one comparison at a time)
         self._maps_now: dict = {}
         self._maps_lagged: dict = {}
+        # step 8: the full-resolution grey frames since velocity_lag_s and a bit, each with the camera's
+        # motion from it onto the last frame (processed px)
+        self._walk: list[tuple[float, np.ndarray, np.ndarray]] = []
         self._k_open = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (cfg.open_px, cfg.open_px))
         # a square closing: it joins members up to merge_px apart, and costs the same at any size
         self._k_close = cv2.getStructuringElement(cv2.MORPH_RECT, (cfg.merge_px, cfg.merge_px))
@@ -545,6 +583,7 @@ class MotionDetector:
         self._followed = {}
         self._pending = None
         self._older = []
+        self._walk = []
 
     def moved_near(self, xy_px: np.ndarray) -> np.ndarray | None:
         """(N,) bool: whether each full-resolution point lies on what moved in the previous frame (its
@@ -612,6 +651,7 @@ class MotionDetector:
             self._age_box = self._cut_age = self._cut_box = None
             self._followed = {}
             self._older = []
+            self._walk = []
             return MotionResult.empty(reg)
         h, w = curr.shape
         warp = _warper(reg.H_curr_from_prev, w, h, self._maps_now)
@@ -647,7 +687,39 @@ class MotionDetector:
         if self.cfg.stray_reach > 0 and xy:
             xy = self._with_strays(xy, boxes, areas, carved, comps, recent, carve, tails, r2)
         blobs = Blobs(np.array(xy, float).reshape(-1, 2), np.array(boxes, float).reshape(-1, 4), np.array(areas, float))
-        return MotionResult(blobs, np.array(carved, int), reg)
+        carved_a = np.array(carved, int)
+        if self.cfg.velocity_lag_s > 0:
+            vehicles = np.empty((0, 2)) if carve_xy_px is None else np.asarray(carve_xy_px, float).reshape(-1, 2)
+            blobs = self._with_velocity(blobs, carved_a, p.grey, reg.H_curr_from_prev, stamp_s, recent, vehicles,
+                                        carve_radius_px)
+        return MotionResult(blobs, carved_a, reg)
+
+    def _with_velocity(self, blobs: Blobs, carved: np.ndarray, grey: np.ndarray, M: np.ndarray, stamp_s: float,
+                       recent: np.ndarray, vehicles: np.ndarray, vehicle_radius_px: float) -> Blobs:
+        """Step 8: the crowd blobs' walkers' velocity (:func:`.blob_velocity.walkers_velocity`) against the
+        kept frame nearest ``velocity_lag_s`` ago (none nearer than three quarters of it: not measured),
+        from corners on what moved in the history (``recent``, processed px) off the vehicles' discs (a UGV
+        driving past a crowd, its corners sharper than any walker's, was that crowd's velocity);
+        this frame kept for the next ones."""
+        lag = self.cfg.velocity_lag_s
+        self._walk = [(t, g, M @ H) for t, g, H in self._walk if stamp_s - t <= 1.5 * lag + 1e-6]
+        v, sigma = np.zeros((len(blobs), 2)), np.zeros(len(blobs))
+        crowds = np.flatnonzero(carved < 0)
+        if self._walk and len(crowds):
+            t, old, H = min(self._walk, key=lambda e: abs(stamp_s - e[0] - lag))
+            if stamp_s - t >= 0.75 * lag:
+                s = self.cfg.process_scale
+                S = np.array([[s, 0.0, 0.5 * s - 0.5], [0.0, s, 0.5 * s - 0.5], [0.0, 0.0, 1.0]])
+                on = _full_res_mask(recent, grey.shape, blobs.xyxy_px[crowds], s, self.cfg.velocity.margin_px)
+                off = None
+                if len(vehicles):
+                    off = np.zeros_like(on)
+                    for x, y in vehicles:
+                        cv2.circle(off, (int(round(x)), int(round(y))), int(np.ceil(vehicle_radius_px)), 255, -1)
+                v[crowds], sigma[crowds] = walkers_velocity(old, grey, np.linalg.inv(S) @ H @ S, blobs.xyxy_px[crowds],
+                                                            stamp_s - t, self.cfg.velocity, on, off)
+        self._walk.append((stamp_s, grey, np.eye(3)))
+        return blobs.with_velocity(v, sigma)
 
     def _with_strays(self, xy: list, boxes: list, areas: list, carved: list, comps: list, recent: np.ndarray,
                      carve: np.ndarray, tails: np.ndarray, r2: float) -> list:
@@ -702,7 +774,7 @@ class MotionDetector:
         frame (or one of another size), which has nothing to be registered with."""
         if self._pending is not None and self._pending.stamp_s == stamp_s:
             return self._pending.registration
-        curr, curr_c = self._scaled(frame)
+        curr, curr_c, grey = self._scaled(frame)
         prev, self._prev = self._prev, curr
         prev_c, self._prev_c = self._prev_c, curr_c
         dt_s = stamp_s - self._stamp_s if self._stamp_s is not None else 0.0
@@ -713,9 +785,11 @@ class MotionDetector:
             self._kept = self._age_box = self._last_H = self._older_H = self._cut_age = self._cut_box = None
             self._busy = None
             self._older = []
+            self._walk = []
         else:
             reg = self._register(prev_c, curr_c, self._busy)
-        self._pending = _Registered(stamp_s, prev, curr, dt_s, reg)
+        keep = None if not self.cfg.velocity_lag_s > 0 else grey.copy() if grey is frame else grey   # kept: not the caller's buffer
+        self._pending = _Registered(stamp_s, prev, curr, dt_s, reg, keep)
         return reg
 
     def _tails(self, carve: np.ndarray, ids: Sequence | None, H: np.ndarray, dt_s: float, r_px: float) -> np.ndarray:
@@ -735,15 +809,16 @@ class MotionDetector:
                     tails[k] = carve[k] - step * (back * min(1.0, TRAIL_MAX_RADII * r_px / n))
         return tails
 
-    def _scaled(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Grey at ``process_scale`` (the processed pixels), and the copy the camera motion is fitted on."""
+    def _scaled(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Grey at ``process_scale`` (the processed pixels), the copy the camera motion is fitted on, and the
+        full-resolution grey."""
         cfg = self.cfg
         gray = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame
         s = cfg.process_scale
         curr = cv2.resize(gray, None, fx=s, fy=s, interpolation=cv2.INTER_AREA) if s != 1.0 else gray
         c = min(1.0, cfg.compensate_max_scale / s)   # camera motion is global: fitted on a copy of at most that scale
         curr_c = cv2.resize(curr, None, fx=c, fy=c, interpolation=cv2.INTER_AREA) if c < 1.0 else curr
-        return curr, curr_c
+        return curr, curr_c, gray
 
     def _register(self, prev_c: np.ndarray, curr_c: np.ndarray, busy: np.ndarray | None) -> Registration:
         """Steps 1-2: the camera motion, fitted off the previous frame's blobs, in processed pixels."""

@@ -25,6 +25,8 @@ from .motion import MotionConfig, MotionDetector, Registration, bounds_for_altit
 __all__ = ["UavVisionConfig", "UavVision", "UavFrameResult", "LabelExpectation", "landmark_config"]
 
 FULL_RES_BELOW_PERSON_PX = 3.0   # process at full resolution when a person would be smaller than this
+VELOCITY_REACH_PX = 8.0          # a walker's velocity is measured over no longer than it takes to move this far
+MIN_VELOCITY_LAG_S = 0.1         # ... (Lucas-Kanade finds a walker only this near where it is sought), but at least this
 RECONFIGURE_ALTITUDE_CHANGE = 0.15  # rebuild the detector when the altitude changes by more than this fraction
 LABEL_AREA_RANGE = (0.25, 4.0)   # a roof label's blob is this fraction to multiple of the label's area
 LABEL_AREA_SLACK_PX = 25.0       # ... plus this much (blur and edge pixels of a small label)
@@ -47,9 +49,10 @@ class UavVisionConfig:
                                               # members (the mingling distance of the scoring) less a person
     crowd_max_m: float = 40.0
     min_crowd_m2: float = 6.0                 # moving ground area of about three people in the history
+    walk_max_m_s: float = 3.2                 # the fastest crowd whose walkers' velocity is measured (motion step 8)
     motion: MotionConfig = field(default_factory=lambda: MotionConfig(speckle="neighbours", max_corners=200, lk_window_px=15,
                                                                       gradient_gain=0.12, stray_reach=1.0, box_k=5.0,
-                                                                      lag_s=0.2))
+                                                                      lag_s=0.2, velocity_lag_s=0.5))
     landmarks: LandmarkConfig = field(default_factory=LandmarkConfig)
 
     def __post_init__(self) -> None:
@@ -107,6 +110,9 @@ class UavVision:
         mc = bounds_for_altitude(alt_agl_m, cfg.focal_px, person_m=cfg.person_m, spacing_m=cfg.crowd_spacing_m,
                                  gap_m=cfg.crowd_gap_m, crowd_max_m=cfg.crowd_max_m, base=base)
         mc = replace(mc, min_area_px=max(mc.min_area_px, cfg.min_crowd_m2 * (cfg.focal_px / alt_agl_m) ** 2))
+        if mc.velocity_lag_s > 0:   # over no longer than the fastest walker takes to leave the search's reach
+            reach_s = VELOCITY_REACH_PX / (cfg.walk_max_m_s * cfg.focal_px / alt_agl_m)
+            mc = replace(mc, velocity_lag_s=min(mc.velocity_lag_s, max(reach_s, MIN_VELOCITY_LAG_S)))
         self._motion = MotionDetector(mc)
         self._lm_cfg = landmark_config(cfg, alt_agl_m)
         self._alt_m = alt_agl_m
@@ -133,7 +139,8 @@ class UavVision:
         lms = Landmarks.from_dict(chosen)
         motion = self._motion.update(frame_bgr, stamp_s, lms.xy_px, self.cfg.vehicle_radius_m * px_per_m, lms.ugv)
         b = motion.blobs
-        blobs = Blobs(b.xy_px, b.xyxy_px, b.area_px, tuple(lms.ugv[c] if c >= 0 else "" for c in motion.carved))
+        blobs = Blobs(b.xy_px, b.xyxy_px, b.area_px, tuple(lms.ugv[c] if c >= 0 else "" for c in motion.carved),
+                      b.v_px_s, b.sigma_v_px_s)
         return UavFrameResult(stamp_s, lms, blobs, motion.registration, refused)
 
     def _reach_px(self, stamp_s: float, since_s: float, px_per_m: float) -> float:
