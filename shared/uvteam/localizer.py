@@ -211,6 +211,8 @@ class CrowdEstimate:
     fix_sigma_m: float = 0.0                # of the frame part, what the noise the landmarks' fixes declare
                                             # makes (a receiver's, from fix to fix): 1 sigma per axis, RMS;
                                             # 0 with no steady part (none to narrow by it, :mod:`.crowds`)
+    v_en_m_s: tuple[float, float] | None = None   # the blob's walkers' velocity on the ground, when the
+    sigma_v_m_s: float = 0.0                # detector measured it, and its 1-sigma spread per axis
 
 
 @dataclass(frozen=True, slots=True)
@@ -628,8 +630,37 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
     keep = range(len(targets)) if finite.all() else np.flatnonzero(finite).tolist()
     idx, e, n, r, area, rf, fx = targets.tolist(), en[:, 0].tolist(), en[:, 1].tolist(), r95.tolist(), \
         blobs.area_px[targets].tolist(), frame_r95.tolist(), fix_sigma.tolist()
-    return tuple(CrowdEstimate(idx[k], e[k], n[k], fp[k], r[k], q, n_out, area[k], rf[k], min(steady, r[k]), fx[k])
-                 for k in keep)
+    vel = _ground_velocities(fit, blobs, targets, centre_px, en)
+    return tuple(CrowdEstimate(idx[k], e[k], n[k], fp[k], r[k], q, n_out, area[k], rf[k], min(steady, r[k]), fx[k],
+                               *vel[k]) for k in keep)
+
+
+VELOCITY_STEP_S = 0.5   # a blob's velocity is taken onto the ground as the step it makes in this long
+
+
+def _ground_velocities(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, centre_px: np.ndarray,
+                       en: np.ndarray) -> list[tuple[tuple[float, float] | None, float]]:
+    """Per target, its blob's walkers' velocity on the ground (m/s) and its spread (1 sigma per axis), by
+    the transform's image of the step the blob makes in ``VELOCITY_STEP_S``; (None, 0) where the detector
+    measured none or the step leaves the ground."""
+    out: list[tuple[tuple[float, float] | None, float]] = [(None, 0.0)] * len(targets)
+    if not len(blobs.v_px_s):
+        return out
+    sv = blobs.sigma_v_px_s[targets]
+    k = np.flatnonzero(sv > 0)
+    if not len(k):
+        return out
+    step = centre_px[k] + blobs.v_px_s[targets[k]] * VELOCITY_STEP_S
+    to_ground = fit.prior.px_to_ground if fit.quality == FitQuality.POSE else fit.fit.px_to_ground
+    with np.errstate(all="ignore"):
+        v = (to_ground(step) - en[k]) / VELOCITY_STEP_S
+        # the spread onto the ground at the scale of that step, both axes alike (nadir-ish views)
+        scale = np.hypot(*(to_ground(centre_px[k] + (1.0, 0.0)) - en[k]).T)
+    s = sv[k] * scale
+    for j, i in enumerate(k.tolist()):
+        if np.isfinite(v[j]).all() and np.isfinite(s[j]):
+            out[i] = ((float(v[j, 0]), float(v[j, 1])), float(s[j]))
+    return out
 
 
 def landmark_noise_scale(state: LocalizerState) -> float:

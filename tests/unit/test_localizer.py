@@ -338,3 +338,26 @@ def test_every_blob_labelled_as_a_ugv_is_that_ugv_never_a_crowd():
                                                            areas=areas), tracks, cfg())
         assert [c.blob_index for c in out.crowds] == [n - 1], first
         assert out.blob_of_ugv["red"] == int(np.argmax(np.where(np.array(labels) == "red", areas, -1.0)))
+
+
+def test_a_blob_s_walkers_velocity_reaches_the_ground_through_the_transform():
+    # the crowd walks (1.2, -0.5) m/s: its pixel velocity is the step its image makes in 0.5 s over 0.5 s; on the
+    # ground it is the crowd's own (the camera yawed 15 degrees: not the pixel axes), its spread scaled by the
+    # ground's metres per pixel; a blob with no velocity measured has none
+    obs = observation(1.0)
+    tracks = {u: track_at(en) for u, en in UGVS.items()}
+    walk = np.array([1.2, -0.5])
+    v_px = (project(CAM, POSE, CROWD + 0.5 * walk) - project(CAM, POSE, CROWD))[0] / 0.5
+    n = len(obs.blobs)
+    v, sv = np.zeros((n, 2)), np.zeros(n)
+    v[-1], sv[-1] = v_px, 2.0
+    b = obs.blobs
+    o = FrameObservation(1.0, obs.landmarks, Blobs(b.xy_px, b.xyxy_px, b.area_px, b.ugv, v, sv))
+    _, out = localize_step(LocalizerState(), o, tracks, cfg())
+    (c,) = out.crowds
+    np.testing.assert_allclose(c.v_en_m_s, walk, atol=1e-6)
+    m_per_px = 50.0 / CAM.focal_px
+    assert c.sigma_v_m_s == pytest.approx(2.0 * m_per_px, rel=0.01)
+    o = FrameObservation(1.0, obs.landmarks, Blobs(b.xy_px, b.xyxy_px, b.area_px, b.ugv, v, np.zeros(n)))
+    _, out = localize_step(LocalizerState(), o, tracks, cfg())
+    assert out.crowds[0].v_en_m_s is None and out.crowds[0].sigma_v_m_s == 0.0
