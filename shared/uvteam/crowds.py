@@ -177,6 +177,18 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    with the filter, the other worlds' within 0.01 m (docs/results-worlds.md, session 41). That is white noise
    from fix to fix; a receiver's error is mostly a bias that drifts over minutes, which no filter over seconds
    takes out and this one leaves as it is (the -gnss1drift worlds: 0.848 -> 0.844 m, session 42).
+   A crowd whose walkers' velocity the detector measured (corners on the walkers, :mod:`uvteam.vision.blob_velocity`;
+   ``CrowdEstimate.v_en_m_s``) is filtered with it (:func:`_carried_step`): the velocity known to
+   ``smooth_sigma_v_m_s`` and ``smooth_spread_k`` times the spread the detector declares (its median absolute
+   deviation over the square root of the corners' count, measured 3-4 times too small: on the tuning recordings the
+   error's median grows from 0.12 to 0.66 m/s from the least to the most declared spread), off by a bias the
+   filter learns from the blob's places (``smooth_bias_m_s``: 2-8 % slow as shipped, which at paper-fig7-alt50's
+   3.1 m/s left the crowd 0.1-0.2 m behind), the blob's place also ``smooth_blob_sigma_m`` off its crowd, and
+   walkers that join or leave the blob start nothing afresh: a blob that drifts as walkers go out of sight (a
+   canopy, ground of their own shade) no longer takes its crowd with it, since the walkers themselves do not
+   drift. Its radius is as without: the filter takes out the blob's drift, not the steady offset the radius
+   holds (a radius narrowed by a share of that part held the truth in 0.68 of frames on paper-fig9-color-lm4,
+   whose crowds' error is that offset; docs/results-worlds.md, session 51).
 """
 
 from __future__ import annotations
@@ -228,6 +240,12 @@ class GroupingConfig:
     smooth_min_sigma_m: float = 0.05  # ... and its estimates' noise from frame to frame is taken as at least this
     smooth_area_ratio: float = 1.3  # ... and so does one whose moving pixels changed by more than this factor
     smooth_skip_frames: int = 1   # ... but an estimate off the gate is first skipped this many frames in a row
+    smooth_blob_sigma_m: float = 0.3  # > 0: a crowd whose walkers' velocity the detector measured is filtered with
+                                  # it, its blob's place taken as also this far off (1 sigma per axis) (step 10)
+    smooth_sigma_v_m_s: float = 0.15  # ... that velocity known to this per axis (1 sigma),
+    smooth_spread_k: float = 6.0  # ... and to this many times the spread the detector declares for it
+    smooth_bias_m_s: float = 0.1  # ... and to be off by a bias the filter learns, at first this (1 sigma per axis;
+    smooth_bias_walk_m_s: float = 0.01  # 0: none), which changes by this per axis per square root of a second
 
     def __post_init__(self) -> None:
         for name in ("near_m", "window_s", "min_span_s", "max_rel_speed_m_s"):
@@ -251,6 +269,10 @@ class GroupingConfig:
                 and self.smooth_area_ratio >= 1.0 and self.smooth_skip_frames >= 0):
             raise ValueError("smooth_accel_m_s2 must be >= 0, smooth_gate and smooth_min_sigma_m > 0, "
                              "smooth_area_ratio >= 1, smooth_skip_frames >= 0")
+        if not (self.smooth_blob_sigma_m >= 0.0 and self.smooth_sigma_v_m_s > 0.0 and self.smooth_spread_k >= 0.0
+                and self.smooth_bias_m_s >= 0.0 and self.smooth_bias_walk_m_s >= 0.0):
+            raise ValueError("smooth_blob_sigma_m, smooth_spread_k, smooth_bias_m_s and smooth_bias_walk_m_s must be "
+                             ">= 0, smooth_sigma_v_m_s > 0")
         if not 0.0 <= self.late_share <= 1.0:
             raise ValueError(f"late_share must be in [0, 1], got {self.late_share}")
         if not (self.apart_m >= self.near_m and self.apart_frames >= 1 and self.rejoin_s >= 0.0):
@@ -946,8 +968,8 @@ class Smoothed:
     their covariance."""
 
     stamp_s: float
-    x: np.ndarray                      # (4,)
-    P: np.ndarray                      # (4, 4)
+    x: np.ndarray                      # (4,), or (6,) with the measured velocity's bias (``_carried_step``)
+    P: np.ndarray                      # (4, 4), or (6, 6)
     area_px: float                     # the moving pixels of the estimate it last took
     skipped: int = 0                   # estimates off its gate skipped in a row, up to this frame
 
@@ -991,7 +1013,11 @@ def _filter_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_
     (walkers that joined or left its blob move its centre: field-alt100-lm6 seed 9 at 47.2-47.8 s, the second
     crowd leaving, followed 1-2 m behind), or when the estimate lies ``smooth_gate`` standard deviations off
     for more than ``smooth_skip_frames`` frames in a row (before that, the estimate is skipped: predicted, not
-    updated)."""
+    updated). With ``smooth_blob_sigma_m``, a crowd whose walkers' velocity was measured: :func:`_carried_step`."""
+    if cfg.smooth_blob_sigma_m > 0.0 and r.estimate.v_en_m_s is not None:
+        return _carried_step(prev, r, sigma_m, stamp_s, cfg)
+    if prev is not None and len(prev.x) > 4:   # the walkers' velocity not measured this frame: its bias kept aside
+        prev = replace(prev, x=prev.x[:4], P=prev.P[:4, :4])
     z = np.array([r.estimate.east_m, r.estimate.north_m])
     R = sigma_m ** 2 * np.eye(2)
     area = r.estimate.area_px
@@ -1013,6 +1039,61 @@ def _filter_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_
     return Smoothed(stamp_s, np.array([z[0], z[1], v[0], v[1]]),
                     np.diag([sigma_m ** 2, sigma_m ** 2, SMOOTH_START_SIGMA_V_M_S ** 2, SMOOTH_START_SIGMA_V_M_S ** 2]),
                     area)
+
+
+def _carried_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_s: float, cfg: GroupingConfig
+                  ) -> Smoothed:
+    """One Kalman step of a crowd's constant-velocity filter that also takes its walkers' velocity as measured
+    (``CrowdEstimate.v_en_m_s``: white noise of ``smooth_sigma_v_m_s`` and ``smooth_spread_k`` times its declared
+    spread per axis, plus a bias the filter learns, ``smooth_bias_m_s``; a measurement off the gate is left out)
+    and weighs the blob's place as also off by its offset from the crowd (walkers out of sight or back,
+    ``smooth_blob_sigma_m``), no frame noise: a blob that drifts as walkers go out of sight does not take the
+    crowd with it, and walkers that join or leave the blob start nothing afresh. The state: east, north, their
+    rates, and the bias (east, north) while ``smooth_bias_m_s`` > 0 (kept aside in frames whose velocity was not
+    measured, :func:`_filter_step`). A gap, a first estimate, or one off the gate (after ``smooth_skip_frames``)
+    start it afresh."""
+    c = r.estimate
+    z = np.array([c.east_m, c.north_m])
+    zv = np.asarray(c.v_en_m_s, float)
+    rp = sigma_m ** 2 + cfg.smooth_blob_sigma_m ** 2
+    rv = cfg.smooth_sigma_v_m_s ** 2 + (cfg.smooth_spread_k * c.sigma_v_m_s) ** 2
+    area = c.area_px
+    nb = 6 if cfg.smooth_bias_m_s > 0 else 4
+    if prev is not None and len(prev.x) != nb:
+        x6, P6 = np.zeros(nb), np.diag([0.0] * 4 + [cfg.smooth_bias_m_s ** 2] * (nb - 4))
+        m = min(nb, len(prev.x))
+        x6[:m], P6[:m, :m] = prev.x[:m], prev.P[:m, :m]
+        prev = replace(prev, x=x6, P=P6)
+    if prev is not None and 0.0 < stamp_s - prev.stamp_s <= SMOOTH_GAP_S:
+        dt = stamp_s - prev.stamp_s
+        F = np.eye(nb)
+        F[0, 2] = F[1, 3] = dt
+        G = np.array([[dt * dt / 2.0, 0.0], [0.0, dt * dt / 2.0], [dt, 0.0], [0.0, dt]])
+        Q = np.zeros((nb, nb))
+        Q[:4, :4] = cfg.smooth_accel_m_s2 ** 2 * (G @ G.T)
+        if nb == 6:
+            Q[4, 4] = Q[5, 5] = cfg.smooth_bias_walk_m_s ** 2 * dt
+        x, P = F @ prev.x, F @ prev.P @ F.T + Q
+        y = z - x[:2]
+        Hv = np.zeros((2, nb))
+        Hv[0, 2] = Hv[1, 3] = 1.0
+        if nb == 6:
+            Hv[0, 4] = Hv[1, 5] = 1.0
+        if float(y @ np.linalg.solve(P[:2, :2] + rp * np.eye(2), y)) <= cfg.smooth_gate ** 2:
+            yv = zv - Hv @ x
+            take_v = float(yv @ np.linalg.solve(Hv @ P @ Hv.T + rv * np.eye(2), yv)) <= cfg.smooth_gate ** 2
+            Hp = np.eye(nb)[:2]
+            Hm = np.vstack([Hp, Hv]) if take_v else Hp
+            R = np.diag([rp, rp, rv, rv]) if take_v else rp * np.eye(2)
+            yy = np.concatenate([y, yv]) if take_v else y
+            K = np.linalg.solve(Hm @ P @ Hm.T + R, Hm @ P).T
+            P = P - K @ Hm @ P
+            return Smoothed(stamp_s, x + K @ yy, (P + P.T) / 2.0, area)
+        if prev.skipped < cfg.smooth_skip_frames:
+            return Smoothed(stamp_s, x, P, prev.area_px, prev.skipped + 1)
+    x0 = np.concatenate([z, zv, np.zeros(nb - 4)])
+    P0 = np.diag([sigma_m ** 2, sigma_m ** 2, rv, rv] + [cfg.smooth_bias_m_s ** 2] * (nb - 4))
+    return Smoothed(stamp_s, x0, P0, area)
 
 
 def _came_out(state: GroupingState, estimates: tuple[CrowdEstimate, ...], en: np.ndarray, trk: list[CrowdTrack],
