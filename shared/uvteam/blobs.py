@@ -18,7 +18,7 @@ axis, a spread of 0 where it was not measured; no rows at all when the detector 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Annotated, ClassVar
 
 import numpy as np
@@ -113,12 +113,7 @@ class Blobs:
 
     def relabel(self, names: Mapping[str, str]) -> "Blobs":
         """The same blobs with each label mapped through ``names`` (a label not in it becomes "")."""
-        return Blobs(self.xy_px, self.xyxy_px, self.area_px, tuple(names.get(u, "") if u else "" for u in self.ugv),
-                     self.v_px_s, self.sigma_v_px_s)
-
-    def with_velocity(self, v_px_s: np.ndarray, sigma_v_px_s: np.ndarray) -> "Blobs":
-        """The same blobs with their walkers' velocities (one row each; spread 0: not measured)."""
-        return Blobs(self.xy_px, self.xyxy_px, self.area_px, self.ugv, v_px_s, sigma_v_px_s)
+        return replace(self, ugv=tuple(names.get(u, "") if u else "" for u in self.ugv))
 
     def velocity_of(self, i: int) -> tuple[np.ndarray, float] | None:
         """Blob ``i``'s walkers' velocity (px/s) and its 1-sigma spread per axis, None where not measured."""

@@ -1023,11 +1023,8 @@ def _filter_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_
     area = r.estimate.area_px
     if (prev is not None and 0.0 < stamp_s - prev.stamp_s <= SMOOTH_GAP_S
             and prev.area_px <= area * cfg.smooth_area_ratio and area <= prev.area_px * cfg.smooth_area_ratio):
-        dt = stamp_s - prev.stamp_s
-        F = np.eye(4)
-        F[0, 2] = F[1, 3] = dt
-        G = np.array([[dt * dt / 2.0, 0.0], [0.0, dt * dt / 2.0], [dt, 0.0], [0.0, dt]])
-        x, P = F @ prev.x, F @ prev.P @ F.T + cfg.smooth_accel_m_s2 ** 2 * (G @ G.T)
+        F, Q = _transition(stamp_s - prev.stamp_s, 4, cfg)
+        x, P = F @ prev.x, F @ prev.P @ F.T + Q
         S = P[:2, :2] + R
         y = z - x[:2]
         if float(y @ np.linalg.solve(S, y)) <= cfg.smooth_gate ** 2:
@@ -1039,6 +1036,20 @@ def _filter_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_
     return Smoothed(stamp_s, np.array([z[0], z[1], v[0], v[1]]),
                     np.diag([sigma_m ** 2, sigma_m ** 2, SMOOTH_START_SIGMA_V_M_S ** 2, SMOOTH_START_SIGMA_V_M_S ** 2]),
                     area)
+
+
+def _transition(dt: float, n: int, cfg: GroupingConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Step 10's filters over ``dt`` s: the state's transition and process noise, ``n`` states (east, north, their
+    rates, and with 6 the measured velocity's bias, :func:`_carried_step`): white acceleration of
+    ``smooth_accel_m_s2`` per axis, the bias walking ``smooth_bias_walk_m_s`` per square root of a second."""
+    F = np.eye(n)
+    F[0, 2] = F[1, 3] = dt
+    G = np.array([[dt * dt / 2.0, 0.0], [0.0, dt * dt / 2.0], [dt, 0.0], [0.0, dt]])
+    Q = np.zeros((n, n))
+    Q[:4, :4] = cfg.smooth_accel_m_s2 ** 2 * (G @ G.T)
+    if n == 6:
+        Q[4, 4] = Q[5, 5] = cfg.smooth_bias_walk_m_s ** 2 * dt
+    return F, Q
 
 
 def _carried_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_s: float, cfg: GroupingConfig
@@ -1065,14 +1076,7 @@ def _carried_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp
         x6[:m], P6[:m, :m] = prev.x[:m], prev.P[:m, :m]
         prev = replace(prev, x=x6, P=P6)
     if prev is not None and 0.0 < stamp_s - prev.stamp_s <= SMOOTH_GAP_S:
-        dt = stamp_s - prev.stamp_s
-        F = np.eye(nb)
-        F[0, 2] = F[1, 3] = dt
-        G = np.array([[dt * dt / 2.0, 0.0], [0.0, dt * dt / 2.0], [dt, 0.0], [0.0, dt]])
-        Q = np.zeros((nb, nb))
-        Q[:4, :4] = cfg.smooth_accel_m_s2 ** 2 * (G @ G.T)
-        if nb == 6:
-            Q[4, 4] = Q[5, 5] = cfg.smooth_bias_walk_m_s ** 2 * dt
+        F, Q = _transition(stamp_s - prev.stamp_s, nb, cfg)
         x, P = F @ prev.x, F @ prev.P @ F.T + Q
         y = z - x[:2]
         Hv = np.zeros((2, nb))

@@ -597,8 +597,9 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
     fix_sigma = np.zeros(len(targets))   # the fixes' part: only where a steady part is declared (below)
     if fit.quality == FitQuality.POSE:
         prior = fit.prior
-        en = prior.px_to_ground(centre_px)
-        fp = prior.px_to_ground(corners).reshape(-1, 4, 2)
+        to_ground = prior.px_to_ground
+        en = to_ground(centre_px)
+        fp = to_ground(corners).reshape(-1, 4, 2)
         s_t = sigma_target_px / px_per_m if px_per_m else 0.0
         r95 = R95_PER_SIGMA * np.sqrt(prior.sigma_m(en) ** 2 + s_t ** 2)
         frame_r95 = r95 if sigma_target_frame_px is None else \
@@ -606,6 +607,7 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
         n_out = 0
     else:
         h = fit.fit
+        to_ground = h.px_to_ground
         s_lm, s_m = sigma_landmark_px * landmark_scale, np.asarray(fit.sigma_m, float) * landmark_scale
         all_per_frame = sigma_target_frame_px is None or sigma_target_frame_px == sigma_target_px
         if all_per_frame:    # then no steady part is declared
@@ -624,13 +626,13 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
         if fit.quality == FitQuality.SUSPECT:   # the fit or its prior is wrong: the radius covers both
             off = np.sqrt(((en - fit.prior.px_to_ground(centre_px)) ** 2).sum(1))
             r95 = np.maximum(r95, off + R95_PER_SIGMA * fit.prior.sigma_m(en))
-        fp = h.px_to_ground(corners).reshape(-1, 4, 2)
+        fp = to_ground(corners).reshape(-1, 4, 2)
         n_out = int(len(h.inliers) - h.inliers.sum())
     finite = np.isfinite(np.column_stack([en, r95, fp.reshape(-1, 8)])).all(1)
     keep = range(len(targets)) if finite.all() else np.flatnonzero(finite).tolist()
     idx, e, n, r, area, rf, fx = targets.tolist(), en[:, 0].tolist(), en[:, 1].tolist(), r95.tolist(), \
         blobs.area_px[targets].tolist(), frame_r95.tolist(), fix_sigma.tolist()
-    vel = _ground_velocities(fit, blobs, targets, centre_px, en)
+    vel = _ground_velocities(to_ground, blobs, targets, centre_px, en)
     return tuple(CrowdEstimate(idx[k], e[k], n[k], fp[k], r[k], q, n_out, area[k], rf[k], min(steady, r[k]), fx[k],
                                *vel[k]) for k in keep)
 
@@ -638,11 +640,12 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
 VELOCITY_STEP_S = 0.5   # a blob's velocity is taken onto the ground as the step it makes in this long
 
 
-def _ground_velocities(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, centre_px: np.ndarray,
-                       en: np.ndarray) -> list[tuple[tuple[float, float] | None, float]]:
+def _ground_velocities(to_ground: Callable[[np.ndarray], np.ndarray], blobs: Blobs, targets: np.ndarray,
+                       centre_px: np.ndarray, en: np.ndarray) -> list[tuple[tuple[float, float] | None, float]]:
     """Per target, its blob's walkers' velocity on the ground (m/s) and its spread (1 sigma per axis), by
-    the transform's image of the step the blob makes in ``VELOCITY_STEP_S``; (None, 0) where the detector
-    measured none or the step leaves the ground."""
+    the image under ``to_ground`` (the frame's transform, the one that put its centre at ``en``) of the step
+    the blob makes in ``VELOCITY_STEP_S``; (None, 0) where the detector measured none or the step leaves the
+    ground."""
     out: list[tuple[tuple[float, float] | None, float]] = [(None, 0.0)] * len(targets)
     if not len(blobs.v_px_s):
         return out
@@ -651,7 +654,6 @@ def _ground_velocities(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, centr
     if not len(k):
         return out
     step = centre_px[k] + blobs.v_px_s[targets[k]] * VELOCITY_STEP_S
-    to_ground = fit.prior.px_to_ground if fit.quality == FitQuality.POSE else fit.fit.px_to_ground
     with np.errstate(all="ignore"):
         v = (to_ground(step) - en[k]) / VELOCITY_STEP_S
         # the spread onto the ground at the scale of that step, both axes alike (nadir-ish views)

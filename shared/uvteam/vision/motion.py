@@ -512,6 +512,18 @@ def _windows(boxes: np.ndarray, margin: float, w: int, h: int) -> list[tuple[int
     return [tuple(o) for o in out]
 
 
+def _pixel_scale(s: float) -> np.ndarray:
+    """The homogeneous map from pixels to pixels of a copy scaled by ``s`` (pixel centres: x_s = (x + 0.5) s - 0.5)."""
+    return np.array([[s, 0.0, 0.5 * s - 0.5], [0.0, s, 0.5 * s - 0.5], [0.0, 0.0, 1.0]])
+
+
+def _carried_on(kept: list[tuple[float, np.ndarray, np.ndarray]], M: np.ndarray, stamp_s: float, keep_s: float
+                ) -> list[tuple[float, np.ndarray, np.ndarray]]:
+    """Kept frames (stamp, frame, homography onto the last frame) with each homography carried on by the camera's
+    latest motion ``M`` onto this frame, those more than ``keep_s`` older than ``stamp_s`` dropped."""
+    return [(t, f, M @ H) for t, f, H in kept if stamp_s - t <= keep_s + 1e-6]
+
+
 def _full_res_mask(mask: np.ndarray, shape: tuple, boxes_xyxy_px: np.ndarray, s: float, margin_px: float) -> np.ndarray:
     """``mask`` (processed px, scale ``s``) at full resolution (``shape``), widened by a processed pixel, inside
     the boxes (full-resolution px, with ``margin_px``) only; zero elsewhere."""
@@ -702,14 +714,14 @@ class MotionDetector:
         driving past a crowd, its corners sharper than any walker's, was that crowd's velocity);
         this frame kept for the next ones."""
         lag = self.cfg.velocity_lag_s
-        self._walk = [(t, g, M @ H) for t, g, H in self._walk if stamp_s - t <= 1.5 * lag + 1e-6]
+        self._walk = _carried_on(self._walk, M, stamp_s, 1.5 * lag)
         v, sigma = np.zeros((len(blobs), 2)), np.zeros(len(blobs))
         crowds = np.flatnonzero(carved < 0)
         if self._walk and len(crowds):
             t, old, H = min(self._walk, key=lambda e: abs(stamp_s - e[0] - lag))
             if stamp_s - t >= 0.75 * lag:
                 s = self.cfg.process_scale
-                S = np.array([[s, 0.0, 0.5 * s - 0.5], [0.0, s, 0.5 * s - 0.5], [0.0, 0.0, 1.0]])
+                S = _pixel_scale(s)
                 on = _full_res_mask(recent, grey.shape, blobs.xyxy_px[crowds], s, self.cfg.velocity.margin_px)
                 off = None
                 if len(vehicles):
@@ -719,7 +731,7 @@ class MotionDetector:
                 v[crowds], sigma[crowds] = walkers_velocity(old, grey, np.linalg.inv(S) @ H @ S, blobs.xyxy_px[crowds],
                                                             stamp_s - t, self.cfg.velocity, on, off)
         self._walk.append((stamp_s, grey, np.eye(3)))
-        return blobs.with_velocity(v, sigma)
+        return replace(blobs, v_px_s=v, sigma_v_px_s=sigma)
 
     def _with_strays(self, xy: list, boxes: list, areas: list, carved: list, comps: list, recent: np.ndarray,
                      carve: np.ndarray, tails: np.ndarray, r2: float) -> list:
@@ -842,7 +854,7 @@ class MotionDetector:
         if reg.H_curr_from_prev is None or c >= 1.0:
             return reg
         # back to processing pixels (pixel centres: x_c = (x + 0.5) c - 0.5)
-        S = np.array([[c, 0.0, 0.5 * c - 0.5], [0.0, c, 0.5 * c - 0.5], [0.0, 0.0, 1.0]])
+        S = _pixel_scale(c)
         return replace(reg, H_curr_from_prev=np.linalg.inv(S) @ reg.H_curr_from_prev @ S)
 
     def _moving(self, prev: np.ndarray, curr: np.ndarray, M: np.ndarray, warp,
@@ -905,7 +917,7 @@ class MotionDetector:
         one added (``prev``, ``dt_s`` before, ``M`` onto this frame), every older one's warp carried on by
         ``M``, those older than twice ``lag_s`` (and a frame) dropped."""
         keep_s = 2.0 * self.cfg.lag_s + max(dt_s, 0.0)
-        self._older = [(t, f, M @ H) for t, f, H in self._older if stamp_s - t <= keep_s + 1e-6]
+        self._older = _carried_on(self._older, M, stamp_s, keep_s)
         self._older.append((stamp_s - dt_s, prev, M))
 
     def _lagged_moving(self, curr: np.ndarray, curr_range: np.ndarray | None, stamp_s: float) -> np.ndarray:

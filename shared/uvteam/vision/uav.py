@@ -138,9 +138,7 @@ class UavVision:
         chosen, refused = self._choose(cands, stamp_s, px_per_m, expect)
         lms = Landmarks.from_dict(chosen)
         motion = self._motion.update(frame_bgr, stamp_s, lms.xy_px, self.cfg.vehicle_radius_m * px_per_m, lms.ugv)
-        b = motion.blobs
-        blobs = Blobs(b.xy_px, b.xyxy_px, b.area_px, tuple(lms.ugv[c] if c >= 0 else "" for c in motion.carved),
-                      b.v_px_s, b.sigma_v_px_s)
+        blobs = replace(motion.blobs, ugv=tuple(lms.ugv[c] if c >= 0 else "" for c in motion.carved))
         return UavFrameResult(stamp_s, lms, blobs, motion.registration, refused)
 
     def _reach_px(self, stamp_s: float, since_s: float, px_per_m: float) -> float:
