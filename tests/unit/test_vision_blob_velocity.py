@@ -57,6 +57,29 @@ def test_a_camera_motion_the_fits_leave_a_pixel_off_is_corrected_by_the_still_gr
     np.testing.assert_allclose(v[0], (30.0, 0.0), atol=0.6)
 
 
+@pytest.mark.parametrize("starts", [[(300 + 40 * i, 200 + 25 * (i % 3)) for i in range(5)],
+                                    [(20 + 30 * i, 440 + 10 * (i % 2)) for i in range(4)]],
+                         ids=["mid-frame", "at-the-edge"])
+def test_lucas_kanade_on_crops_gives_the_whole_frames_answer(monkeypatch, starts):
+    """Step 8 follows corners on crops round each box and its place in the older frame; with crops as large as
+    the frames (the whole-frame pyramids it saves) the velocity is the same, in mid-frame and where the crop is
+    cut by the frame's edge."""
+    import uvteam.vision.blob_velocity as bv
+    ground = texture(600, 800, 4)
+    walk = np.array([3.0, -1.5])
+    old, M0 = scene(0, starts, ground)
+    new, M4 = scene(4, [(x + 4 * walk[0], y + 4 * walk[1]) for x, y in starts], ground)
+    H = np.vstack([M4, [0, 0, 1]]) @ np.linalg.inv(np.vstack([M0, [0, 0, 1]]))
+    xy = np.array([(x + 4 * walk[0] - 20, y + 4 * walk[1] - 12) for x, y in starts])
+    box = np.array([[*(xy.min(0) - 15), *(xy.max(0) + 15)]])
+    cropped = walkers_velocity(old, new, H, box, 0.4)
+    monkeypatch.setattr(bv, "_lk_reach_px", lambda cfg: 100_000)
+    whole = walkers_velocity(old, new, H, box, 0.4)
+    assert cropped[1][0] > 0 and whole[1][0] > 0
+    np.testing.assert_allclose(cropped[0], whole[0], rtol=0.01, atol=0.05)
+    np.testing.assert_allclose(cropped[0][0], walk / 0.1, atol=1.0)
+
+
 def test_the_velocity_settings_are_checked():
     with pytest.raises(ValueError):
         VelocityConfig(back_px=0.0)
