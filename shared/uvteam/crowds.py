@@ -219,10 +219,10 @@ class GroupingConfig:
     apart_frames: int = 10        # ... and so are parts whose distance changed significantly this many frames in a row,
     late_share: float = 0.5       # ... each time still changing over the later half of the fit at this share of its pace
     rejoin_s: float = 6.0         # ... until, near, their distance holds over this long (0: never; <= the tracks' trail)
-    scatter_s: float = 10.0       # a crowd's radius counts the scatter of its estimates over this long
+    scatter_s: float = 8.0        # a crowd's radius counts the scatter of its estimates over this long
     scatter_min_points: int = 5   # ... once there are this many
     scatter_fast_s: float = 1.0   # ... the scatter within this long is frame noise, the rest the steady offset changing
-    steady_per_scatter: float = 1.7  # a crowd's blob keeps a steady offset of this times its scatter (0: as declared)
+    steady_per_scatter: float = 1.2  # a crowd's blob keeps a steady offset of this times its scatter (0: as declared)
     steady_min_m: float = 0.3     # ... but at least this, and at most what the detector declares (1 sigma per axis)
     coast_s: float = 5.0          # a crowd gone unseen is reported where its walk takes it this long (0: never)
     coast_min_seen_s: float = 2.0  # ... if it was seen this long first
