@@ -43,7 +43,7 @@ class CrowdTracker:
     alpha: float = 0.4                  # at 10 Hz with ~0.5 m measurement noise: the velocity gain beta/dt
     beta: float = 0.05                  # (0.5 per m of residual) keeps the velocity within ~0.3 m/s
     max_misses: int = 10
-    trail_s: float = 10.0               # what crowds.py reads from it: the parts' drift (3 s) and the scatter (10 s)
+    trail_s: float = 10.0               # what crowds.py reads from it: the parts' drift (3 s) and the scatter (8 s)
     tracks: tuple[CrowdTrack, ...] = ()
     next_id: int = 1
 
