@@ -8,9 +8,10 @@ a camera that moves many pixels in that time leaves only the walkers' own motion
 corner that does not come back within ``back_px`` is dropped), move as the walkers do (:func:`walkers_velocity`).
 The camera's motion over those frames is taken out by the chained frame-to-frame homographies the motion
 detector already fits, and what is left of it near the blob (those fits are made on a scaled copy) by the
-median motion of the box's corners off what moved that did not move: the ground round the walkers. Of the corners that moved more than ``moved_px``, the median motion over the
-time between the frames is the blob's velocity in this frame's pixels, and the median absolute deviation
-over the square root of their count its spread (1 sigma per axis, at least ``min_sigma_px_s``).
+median motion of the box's corners off what moved that did not move: the ground round the walkers. Of the
+corners that moved more than ``moved_px``, the median motion over the time between the frames is the blob's
+velocity in this frame's pixels, and the median absolute deviation over the square root of their count its
+spread (1 sigma per axis, at least ``min_sigma_px_s``).
 
 Lucas-Kanade finds a walker only within about a window of where it is sought, so the UAV pipeline measures over
 no longer than the fastest walker it expects takes to move 8 px (:class:`uvteam.vision.uav.UavVisionConfig`:
@@ -33,7 +34,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-__all__ = ["VelocityConfig", "walkers_velocity"]
+__all__ = ["VelocityConfig", "box_window", "walkers_velocity"]
 
 MAD_SIGMA = 1.4826      # a normal distribution's sigma per median absolute deviation
 
@@ -58,6 +59,15 @@ class VelocityConfig:
                 and self.min_sigma_px_s > 0):
             raise ValueError("velocity: margin_px, moved_px >= 0; max_corners, min_moved, min_still >= 1; "
                              "lk_window_px >= 3, lk_levels >= 0; back_px, min_sigma_px_s > 0")
+
+
+def box_window(box_xyxy_px, margin_px: float, w: int, h: int) -> tuple[int, int, int, int]:
+    """Where corners are sought round a blob's box (x0, y0, x1, y1): the box widened by ``margin_px`` to whole
+    pixels (x1, y1 exclusive), inside a ``w`` x ``h`` frame. The motion detector's mask of what moved is drawn
+    in these same windows (:func:`uvteam.vision.motion._full_res_mask`)."""
+    x0, y0, x1, y1 = box_xyxy_px
+    return (max(int(x0 - margin_px), 0), max(int(y0 - margin_px), 0),
+            min(int(np.ceil(x1 + margin_px)) + 1, w), min(int(np.ceil(y1 + margin_px)) + 1, h))
 
 
 def _lk_reach_px(cfg: VelocityConfig) -> int:
@@ -104,9 +114,8 @@ def walkers_velocity(old: np.ndarray, new: np.ndarray, H_new_from_old: np.ndarra
     H_old_from_new = np.linalg.inv(H_new_from_old)
     flags = cv2.OPTFLOW_USE_INITIAL_FLOW
     pad = _lk_reach_px(cfg)
-    for k, (x0, y0, x1, y1) in enumerate(np.asarray(boxes_xyxy_px, float)):
-        bx0, by0 = max(int(x0 - cfg.margin_px), 0), max(int(y0 - cfg.margin_px), 0)
-        bx1, by1 = min(int(np.ceil(x1 + cfg.margin_px)) + 1, w), min(int(np.ceil(y1 + cfg.margin_px)) + 1, h)
+    for k, box in enumerate(np.asarray(boxes_xyxy_px, float)):
+        bx0, by0, bx1, by1 = box_window(box, cfg.margin_px, w, h)
         if bx1 - bx0 < 3 or by1 - by0 < 3:
             continue
         q_new = cv2.goodFeaturesToTrack(new[by0:by1, bx0:bx1], cfg.max_corners, cfg.corner_quality,

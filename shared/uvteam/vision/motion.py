@@ -93,7 +93,7 @@ import cv2
 import numpy as np
 
 from ..blobs import Blobs
-from .blob_velocity import VelocityConfig, walkers_velocity
+from .blob_velocity import VelocityConfig, box_window, walkers_velocity
 
 MIN_VEHICLE_AREA_PX = 4.0   # a carved vehicle's blob only needs to be more than noise
 AGE_UNIT_S = 0.01           # the motion history's time step
@@ -526,13 +526,13 @@ def _carried_on(kept: list[tuple[float, np.ndarray, np.ndarray]], M: np.ndarray,
 
 def _full_res_mask(mask: np.ndarray, shape: tuple, boxes_xyxy_px: np.ndarray, s: float, margin_px: float) -> np.ndarray:
     """``mask`` (processed px, scale ``s``) at full resolution (``shape``), widened by a processed pixel, inside
-    the boxes (full-resolution px, with ``margin_px``) only; zero elsewhere."""
+    the windows step 8 seeks corners in (:func:`.blob_velocity.box_window` of each box with ``margin_px``)
+    only; zero elsewhere."""
     h, w = shape[:2]
     out = np.zeros((h, w), np.uint8)
     wide = cv2.dilate(mask, _K3)
-    for x0, y0, x1, y1 in boxes_xyxy_px:
-        bx0, by0 = max(int(x0 - margin_px), 0), max(int(y0 - margin_px), 0)
-        bx1, by1 = min(int(np.ceil(x1 + margin_px)) + 1, w), min(int(np.ceil(y1 + margin_px)) + 1, h)
+    for box in boxes_xyxy_px:
+        bx0, by0, bx1, by1 = box_window(box, margin_px, w, h)
         if bx1 <= bx0 or by1 <= by0:
             continue
         px0, py0 = int(bx0 * s), int(by0 * s)
