@@ -85,11 +85,13 @@ class Team:
         self.dir = Path(workdir or tempfile.mkdtemp(prefix="uvteam-demo-"))
         (self.dir / "logs").mkdir(parents=True, exist_ok=True)
         self.own_router = router_port is None   # else: join a router already listening on 127.0.0.1:router_port
-        self.router_port = free_port() if router_port is None else router_port
+        # ports named for processes not started yet (the map's chosen before the team)
+        self.named_ports: set[int] = {p for p in (router_port, map_http and int(map_http.rpartition(":")[2])) if p}
+        self.router_port = self.free_port() if router_port is None else router_port
         self.secure = secure
         self.endpoint = f"{'tls' if secure else 'tcp'}/127.0.0.1:{self.router_port}"
         base = TeamLayout.for_scenario(self.sc, team)
-        self.ports = {v: free_port(socket.SOCK_DGRAM) for v in (base.uav, *base.ugvs)}
+        self.ports = {v: self.free_port(socket.SOCK_DGRAM) for v in (base.uav, *base.ugvs)}
         self.layout = TeamLayout(team, base.uav, base.localizer, base.ugvs,
                                  {v: f"udpin:127.0.0.1:{p}" for v, p in self.ports.items()}, base.system_ids)
         self.team, self.uav, self.localizer, self.ugvs = team, base.uav, base.localizer, list(base.ugvs)
@@ -109,7 +111,7 @@ class Team:
             self.configs = {v: replace(c, bus=self.member_bus(v)) for v, c in self.configs.items()}
         self.annotate_url = None
         if annotate and frames == "pixels":   # what the UAV sees, drawn, as MJPEG on a loopback port
-            port = free_port()
+            port = self.free_port()
             u = self.configs[self.uav]
             self.configs[self.uav] = replace(u, uav=replace(u.uav, annotate_http=f"127.0.0.1:{port}"))
             self.annotate_url = f"http://127.0.0.1:{port}/stream.mjpg"
@@ -117,6 +119,12 @@ class Team:
         self.router_args = tuple(router_args)     # zenoh flags the user gave the demo, for its router
         for vid, cfg in self.configs.items():
             (self.dir / f"{vid}.toml").write_text(vehicle_config_to_toml(cfg, f"uvteam demo: {vid} ({cfg.role})"))
+
+    def free_port(self, kind: int = socket.SOCK_STREAM) -> int:
+        """A loopback port for one of the team's processes, none the team named already (they bind later)."""
+        port = free_port(kind, taken=self.named_ports)
+        self.named_ports.add(port)
+        return port
 
     @property
     def secrets(self) -> Path:

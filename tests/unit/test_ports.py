@@ -49,6 +49,31 @@ def test_what_is_held_is_passed_over():
         assert port != held_port and pick.calls >= 2
 
 
+def test_a_port_named_already_is_not_named_again():
+    """Two ports named before either process binds: free_port checks only what is held, so the caller passes
+    what it named (the demo gave two UGVs' links one port once)."""
+    first = free_port(socket.SOCK_DGRAM)
+
+    class Repeating(random.Random):
+        def __init__(self):
+            super().__init__(0)
+            self.calls = 0
+
+        def randrange(self, start, stop=None, step=1):
+            self.calls += 1
+            return first if self.calls < 3 else first + 1
+
+    pick = Repeating()
+    lo, _ = ephemeral_range()
+    if lo - LOWEST_PORT < 1000:
+        pytest.skip(f"no room below this machine's ephemeral range ({lo})")
+    assert free_port(socket.SOCK_DGRAM, rng=Repeating()) == first        # nothing holds it: named again
+    assert free_port(socket.SOCK_DGRAM, rng=pick, taken={first}) == first + 1 and pick.calls == 3
+    # the kernel's choice, when there is no room below its range, skips what was named too
+    kernel = free_port(socket.SOCK_DGRAM, ephemeral=(1024, 65535))
+    assert free_port(socket.SOCK_DGRAM, ephemeral=(1024, 65535), taken={kernel}) != kernel
+
+
 def test_with_no_room_below_the_range_the_kernel_chooses():
     # a range that starts low leaves nothing to pick from: the kernel's own free port
     port = free_port(socket.SOCK_DGRAM, ephemeral=(1024, 65535))
@@ -67,3 +92,32 @@ def test_the_demo_takes_its_router_and_link_ports_below_the_ephemeral_range(tmp_
     ports = [team.router_port, *team.ports.values()]
     assert len(ports) == 1 + 1 + len(team.ugvs)
     assert all(LOWEST_PORT <= p < lo for p in ports), ports
+    assert len(set(ports)) == len(ports) and set(ports) <= team.named_ports, ports   # none named twice
+
+
+def test_the_demo_names_no_port_twice_even_when_the_random_picks_repeat(tmp_path, monkeypatch):
+    """The demo's router and links are named before any binds; picks that repeat (as random ones may: one run
+    gave two UGVs' links the same port) are passed over, also the map's port chosen before the team."""
+    import uvteam.io.ports as ports_module  # noqa: PLC0415
+    from uvteam_ground.demo import DEFAULT_SCENARIO, Team  # noqa: PLC0415
+
+    lo, _ = ephemeral_range()
+    if lo - LOWEST_PORT < 1000:
+        pytest.skip(f"no room below this machine's ephemeral range ({lo})")
+    base = free_port()
+
+    class FewPorts(random.SystemRandom):
+        """Three ports in turn, over and over: the team needs more, so picks repeat."""
+
+        def __init__(self):
+            super().__init__()
+            self.calls = 0
+
+        def randrange(self, start, stop=None, step=1):
+            self.calls += 1
+            return base + self.calls % 3 if self.calls < 40 else super().randrange(start, stop)
+
+    monkeypatch.setattr(ports_module.random, "SystemRandom", FewPorts)
+    team = Team(str(DEFAULT_SCENARIO), workdir=str(tmp_path), frames="sensor", map_http=f"127.0.0.1:{base + 1}")
+    ports = [team.router_port, *team.ports.values()]
+    assert len(set(ports)) == len(ports) and base + 1 not in ports, ports
