@@ -73,7 +73,8 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    or partly, step 7: then up to the moving pixels it usually has)
    (:func:`_young_parts`): a crowd's blob cut in two leaves one part to a track of the crowd's and the
    other to a new one, and that part is the crowd's from its first frame (a young part joins a crowd;
-   alone it is none); a crowd is the area-weighted mean of its parts (the detector's moving pixels),
+   alone it is none, unless it holds ``seen_whole`` of what the crowd's parts had when it was last seen in
+   two or more: their blobs become one on a new track, :func:`_whole_anew`); a crowd is the area-weighted mean of its parts (the detector's moving pixels),
    its footprint the box round theirs, its 95 % radius the largest of theirs, reported under its
    longest-seen part's track (id, velocity). A crowd whose blob is not known yet (its first ``confirm_hits``
    frames reported, :func:`_unknown_blob`) has no footprint to go by: parts seen once less than
@@ -857,10 +858,14 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
         groups.setdefault(g, []).append(k)
     out, of_lead, apart_now = [], {}, {}
     once = [k for k in range(len(trk)) if trk[k].hits < cfg.confirm_hits - 1 and k not in of_part]
+    anew: dict[int, int] = {}    # a crowd seen whole on young tracks alone: their lead's track -> the crowd's id
+    seen_ids = {state.crowd_of.get(trk[k].track_id, trk[k].track_id) for k in confirmed}
     for members in groups.values():
-        if not any(k in confirmed for k in members):    # young parts join a crowd; alone they are none
-            continue
         lead = min(members, key=lambda k: (-trk[k].hits, trk[k].track_id))
+        if not any(k in confirmed for k in members):    # young parts join a crowd; alone they are none
+            if (cid := _whole_anew(state, estimates, members, trk[lead].track_id, young, seen_ids, cfg)) is None:
+                continue
+            anew[trk[lead].track_id] = cid
         if _waits(state, en, trk, members, lead, once, cfg):
             continue
         out.append(ReportedCrowd(_merge([estimates[k] for k in members]), trk[lead], trk[lead].track_id))
@@ -869,7 +874,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
             apart_now[trk[lead].track_id] = apart_parts
     out, last_seen, alias, coasted, inside, still_two = _remembered(
         state, out, stamp_s, cfg, live, frozenset(holds), frozenset(released),
-        {trk[k].track_id: cid for k, (_, cid) in came_out.items()})
+        {trk[k].track_id: cid for k, (_, cid) in came_out.items()} | anew)
     crowd_of = {t: c for t, c in state.crowd_of.items() if t in live}
     crowd_of.update((t, r.crowd_id) for r in out for t in of_lead[r.track.track_id])
     out, in_parts = _may_be_two(state.in_parts, out, apart_now, stamp_s, cfg)
@@ -1198,6 +1203,25 @@ def _young_parts(state: GroupingState, estimates: tuple[CrowdEstimate, ...], con
                 young[k] = ls.crowd.crowd_id
                 have += estimates[k].area_px
     return young
+
+
+def _whole_anew(state: GroupingState, estimates: tuple[CrowdEstimate, ...], members: list[int], track_id: int,
+                young: Mapping[int, int], seen_ids: set[int], cfg: GroupingConfig) -> int | None:
+    """Step 5's young part alone: the id of the crowd it is a part of (:func:`_young_parts`) when the crowd was
+    last seen in two or more parts, the young part holds ``seen_whole`` of the moving pixels they had and no
+    confirmed part of the crowd is seen (``seen_ids``: the crowds of the confirmed parts), or the young part's
+    track (``track_id``) was so taken for the crowd the frame before, else None. A crowd
+    seen in parts whose blobs become one on a new track is that crowd seen whole from the first frame, not a
+    crowd unseen held by its lead part's walk (real-alt120-lm6-gnss1 seed 148 at 15.9 s: two parts 8 m apart,
+    4.6 m off for two frames). Young parts alone in twos are a blob breaking up, two crowds as often as one
+    (field-alt100-lm6 seed 9 at 47.9 s); a crowd seen in one part is held by its own walk."""
+    cid = young.get(members[0]) if len(members) == 1 else None
+    ls = state.last_seen.get(cid) if cid is not None and cid not in seen_ids else None
+    if ls is None or (state.crowd_of.get(track_id) != cid and sum(
+            state.crowd_of.get(t.track_id) == cid and t.stamp_s == ls.seen_s for t in state.tracker.tracks) < 2):
+        return None
+    whole = max(ls.crowd.estimate.area_px, ls.usual_px()) if ls.crowd.partly_seen else ls.crowd.estimate.area_px
+    return cid if sum(estimates[k].area_px for k in members) >= cfg.seen_whole * whole else None
 
 
 def _unknown_blob(state: GroupingState, track: CrowdTrack, cfg: GroupingConfig) -> bool:

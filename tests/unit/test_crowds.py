@@ -686,6 +686,25 @@ def test_a_crowd_seen_as_two_parts_keeps_both_when_one_part_gets_a_young_track()
     assert (r.estimate.east_m, r.estimate.north_m) == pytest.approx((x + 0.5, -2.0), abs=1e-6)
 
 
+@pytest.mark.parametrize("frames", [1, 2, 4])
+def test_a_crowd_seen_in_two_parts_whose_blobs_become_one_on_a_new_track_is_seen_there(frames):
+    # walking east at 1.4 m/s, seen as an east and a west part 9 m apart for 3 s (the west one smaller);
+    # then its blob is one, at the parts' joint centre, 4.5 m from each part's track: a new, young track
+    # takes it. That blob is the crowd seen whole under its id from the first frame (real-alt120-lm6-gnss1
+    # seed 148 at 15.9 s), not the crowd unseen held by its lead part's walk, 3 m off its joint centre
+    def parts(t):
+        f, x = round(t * 10), 1.4 * t
+        if f >= 30:
+            return [(x, 0.0, 40.0, 9.0)]
+        return [(x + 4.5, 0.0, 28.0, 5.0), (x - 4.5, 0.0, 12.0, 5.0)]
+    first = run(parts, 3.0, jitter_m=0.0)
+    out = run(parts, 3.0 + frames / 10, jitter_m=0.0)
+    (r,) = out
+    x = 1.4 * (2.9 + frames / 10)
+    assert r.crowd_id == first[0].crowd_id and r.unseen_s == 0.0
+    assert (r.estimate.east_m, r.estimate.north_m) == pytest.approx((x, 0.0), abs=1e-6)
+
+
 def test_a_stray_blob_beside_a_crowd_seen_whole_joins_nothing():
     # the same crowd seen whole (one blob, a 12 m box) for 3 s; then for one frame a blob of half its
     # pixels 4 m north, inside its footprint, on a new track: the crowd's own blob holds all it had, so
