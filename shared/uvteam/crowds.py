@@ -74,10 +74,11 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    (:func:`_young_parts`): a crowd's blob cut in two leaves one part to a track of the crowd's and the
    other to a new one, and that part is the crowd's from its first frame (a young part joins a crowd;
    alone it is none, unless it holds ``seen_whole`` of what the crowd's parts had when it was last seen in
-   two or more: their blobs become one on a new track, :func:`_whole_anew`); a crowd is the area-weighted mean of its parts (the detector's moving pixels),
-   its footprint the box round theirs, its 95 % radius the largest of theirs, reported under its
-   longest-seen part's track (id, velocity). A crowd whose blob is not known yet (its first ``confirm_hits``
-   frames reported, :func:`_unknown_blob`) has no footprint to go by: parts seen once less than
+   two or more: their blobs become one on a new track, :func:`_whole_anew`); a crowd is the area-weighted
+   mean of its parts (the detector's moving pixels), its footprint the box round theirs, its 95 % radius
+   the largest of theirs, reported under its longest-seen part's track (id, velocity). A crowd whose blob
+   is not known yet (its first ``confirm_hits`` frames reported, :func:`_unknown_blob`) has no footprint
+   to go by: parts seen once less than
    ``confirm_hits`` whose nearest confirmed part is one of it, within ``near_m``, are its (:func:`_starting_parts`;
    real-alt60-lm6 seed 57 at 0.3 s: a loose crowd first seen in two parts 6.4 m apart was reported 3.6 m off,
    at the part confirmed first, and its other part, which then took its whole blob, came out as a crowd of its
@@ -1210,11 +1211,11 @@ def _whole_anew(state: GroupingState, estimates: tuple[CrowdEstimate, ...], memb
     """Step 5's young part alone: the id of the crowd it is a part of (:func:`_young_parts`) when the crowd was
     last seen in two or more parts, the young part holds ``seen_whole`` of the moving pixels they had and no
     confirmed part of the crowd is seen (``seen_ids``: the crowds of the confirmed parts), or the young part's
-    track (``track_id``) was so taken for the crowd the frame before, else None. A crowd
-    seen in parts whose blobs become one on a new track is that crowd seen whole from the first frame, not a
-    crowd unseen held by its lead part's walk (real-alt120-lm6-gnss1 seed 148 at 15.9 s: two parts 8 m apart,
-    4.6 m off for two frames). Young parts alone in twos are a blob breaking up, two crowds as often as one
-    (field-alt100-lm6 seed 9 at 47.9 s); a crowd seen in one part is held by its own walk."""
+    track (``track_id``) was so taken for the crowd the frame before, else None. A crowd seen in parts whose
+    blobs become one on a new track is that crowd seen whole from the first frame, not a crowd unseen held by
+    its lead part's walk (real-alt120-lm6-gnss1 seed 148 at 15.9 s: two parts 8 m apart, 4.6 m off for two
+    frames). Young parts alone in twos are a blob breaking up, two crowds as often as one (field-alt100-lm6
+    seed 9 at 47.9 s); a crowd seen in one part is held by its own walk."""
     cid = young.get(members[0]) if len(members) == 1 else None
     ls = state.last_seen.get(cid) if cid is not None and cid not in seen_ids else None
     if ls is None or (state.crowd_of.get(track_id) != cid and sum(

@@ -640,9 +640,10 @@ class MotionDetector:
         one, and is more than the carved disc: the moving pixels within that radius of the point (of its
         path, below) become a blob of their own, the rest another, so a vehicle driving through a crowd
         neither hides the crowd nor is reported as part of it; what is left is a crowd only if one group
-        of it is crowd-sized on its own (not the trails of two vehicles side by side). Such a vehicle's blob is centred on its point, since its pixels are mixed with the
-        crowd's. A blob that is a vehicle's (carved, or holding its point with no more than a vehicle's
-        worth) says which point in ``MotionResult.carved``, and needs no crowd-sized area.
+        of it is crowd-sized on its own (not the trails of two vehicles side by side). Such a vehicle's
+        blob is centred on its point, since its pixels are mixed with the crowd's. A blob that is a
+        vehicle's (carved, or holding its point with no more than a vehicle's worth) says which point in
+        ``MotionResult.carved``, and needs no crowd-sized area.
 
         ``carve_ids`` (one per point, e.g. the UGV's id) let a point be followed from frame to frame: what
         is carved is then the vehicle's path over the motion history, not only the disc where it is now,
