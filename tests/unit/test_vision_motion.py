@@ -225,6 +225,27 @@ def test_a_vehicle_whose_point_lies_just_off_a_crowd_s_blob_is_carved_out_of_it(
     assert np.hypot(*(crowd - (walkers.mean(0) + (4.0 * 5, 0.0)))) < 6
 
 
+def test_walkers_beside_a_vehicle_in_blobs_of_their_own_keep_their_pixels():
+    # a small vehicle driving 16 px below a crowd's bottom row (its disc, 22 px, reaches the walkers' blobs;
+    # half of it does not), the merging kernel too small to join them: the crowd's blobs are the same with the
+    # vehicle's point given as without it. Off a blob's box, only pixels within half the disc are a vehicle's.
+    ground = texture(720, 1280, seed=4)
+    walkers = np.array([[600 + 30 * i, 330 + 30 * j] for i in range(3) for j in range(3)], float)
+    cfg = MotionConfig(merge_px=5, min_area_px=400.0, speckle="neighbours", process_scale=1.0)
+    with_point, without = MotionDetector(cfg), MotionDetector(cfg)
+    for k in range(6):
+        img = ground.copy()
+        for x, y in walkers + (4.0 * k, 0.0):
+            cv2.circle(img, (int(x), int(y)), 6, (20, 20, 20), -1)
+        vx, vy = 600 + 4 * k, 412
+        cv2.rectangle(img, (vx - 6, vy - 4), (vx + 6, vy + 4), (60, 60, 60), -1)
+        a = with_point.update(img, 0.1 * k, np.array([[vx, vy]], float), 22.0)
+        b = without.update(img, 0.1 * k)
+    assert sorted(a.carved.tolist()) == [-1, -1, -1, 0] and b.carved.tolist() == [-1, -1, -1]
+    np.testing.assert_array_equal(a.blobs.area_px[a.carved == -1], b.blobs.area_px)
+    np.testing.assert_array_equal(a.xy_px[a.carved == -1], b.xy_px)
+
+
 def test_the_trails_of_two_vehicles_side_by_side_are_no_crowd():
     # two vehicles passing each other in two lanes, 28 px apart: one blob. Carved out, each leaves its
     # 0.4 s trail beyond the carved disc (~840 px); together that is more than a crowd's 1200 px, but

@@ -636,8 +636,8 @@ class MotionDetector:
     def update(self, frame: np.ndarray, stamp_s: float, carve_xy_px: np.ndarray | None = None,
                carve_radius_px: float = 0.0, carve_ids: Sequence | None = None) -> MotionResult:
         """Blobs moving in ``frame``. ``carve_xy_px`` (full-resolution points, e.g. color-detected
-        vehicles) split a blob that holds one of them, or has moving pixels within ``carve_radius_px`` of
-        one, and is more than the carved disc: the moving pixels within that radius of the point (of its
+        vehicles) split a blob that holds one of them, or has moving pixels within half ``carve_radius_px``
+        of one, and is more than the carved disc: the moving pixels within that radius of the point (of its
         path, below) become a blob of their own, the rest another, so a vehicle driving through a crowd
         neither hides the crowd nor is reported as part of it; what is left is a crowd only if one group
         of it is crowd-sized on its own (not the trails of two vehicles side by side). Such a vehicle's
@@ -1040,18 +1040,19 @@ class MotionDetector:
         centre_of: dict[int, tuple[float, float]] = {}
         inside, d2s = [], []
         if r2 > 0 and len(carve):
-            # a vehicle is in the component when its point is, or when its disc reaches the component's moving
-            # pixels: a label at the edge of a crowd's blob it drives into (real-alt60-lm6 seed 148 at 6.7 s, a
+            # a vehicle is in the component when its point is, or when the component moved within half the
+            # radius of it (the vehicle's body; its shadow and trail reach further, and so do walkers beside
+            # it): a label at the edge of a crowd's blob it drives into (real-alt60-lm6 seed 148 at 6.7 s, a
             # point 0.25 px below the box) left its vehicle in the crowd's blob, which its fix then claimed
             gy, gx = np.ogrid[y:y + bh, x:x + bw]
-            r = sqrt(r2)
+            r = 0.5 * sqrt(r2)
             for ci, ((cx, cy), (tx, ty)) in enumerate(zip(carve.tolist(), tails.tolist())):
                 held = x <= cx < x + bw and y <= cy < y + bh
                 if not held and (min(cx, tx) - r > x + bw - 1 or max(cx, tx) + r < x
                                  or min(cy, ty) - r > y + bh - 1 or max(cy, ty) + r < y):
                     continue
                 d2_ci = _d2_to_segment(gx, gy, carve[ci], tails[ci])
-                if held or (m & (d2_ci <= r2)).any():
+                if held or (m & (d2_ci <= r * r)).any():
                     inside.append(ci)
                     d2s.append(d2_ci)
         if inside:
