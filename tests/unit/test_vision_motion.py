@@ -177,20 +177,31 @@ def test_color_landmarks_on_a_rendered_roof():
     assert set(DEFAULT_COLORS) == set(cols)
 
 
+CROWD_OF_NINE = np.array([[600 + 30 * i, 330 + 30 * j] for i in range(3) for j in range(3)], float)
+
+
+def crowd_and_vehicle(ground, k, vehicle_xy, half=(12, 8)):
+    """Frame ``k``: the nine dark walkers of ``CROWD_OF_NINE`` moved 4 px right a frame, and a grey
+    vehicle (half-sides ``half`` px) at ``vehicle_xy``."""
+    img = ground.copy()
+    for x, y in CROWD_OF_NINE + (4.0 * k, 0.0):
+        cv2.circle(img, (int(x), int(y)), 6, (20, 20, 20), -1)
+    (vx, vy), (hx, hy) = vehicle_xy, half
+    cv2.rectangle(img, (vx - hx, vy - hy), (vx + hx, vy + hy), (60, 60, 60), -1)
+    return img
+
+
 def test_a_vehicle_driving_through_a_crowd_is_carved_out_and_labelled():
     # a static camera over texture; a crowd of nine dark walkers moving right and a vehicle crossing
     # them downwards. Without carving they make one blob; with the vehicle's color point carved out,
     # the crowd stays one blob (labelled -1) and the vehicle is its own blob (labelled 0).
     ground = texture(720, 1280, seed=4)
-    walkers = np.array([[600 + 30 * i, 330 + 30 * j] for i in range(3) for j in range(3)], float)
+    walkers = CROWD_OF_NINE
     cfg = MotionConfig(merge_px=31, min_area_px=400.0, speckle="neighbours")
     plain, carved = MotionDetector(cfg), MotionDetector(cfg)
     for k in range(6):
-        img = ground.copy()
-        for x, y in walkers + (4.0 * k, 0.0):
-            cv2.circle(img, (int(x), int(y)), 6, (20, 20, 20), -1)
         vx, vy = 660 + 2 * k, 300 + 12 * k            # the vehicle, crossing the crowd
-        cv2.rectangle(img, (vx - 12, vy - 8), (vx + 12, vy + 8), (60, 60, 60), -1)
+        img = crowd_and_vehicle(ground, k, (vx, vy))
         a = plain.update(img, 0.1 * k)
         b = carved.update(img, 0.1 * k, np.array([[vx, vy]], float), 22.0)
     assert len(a) == 1 and list(a.carved) == [-1]
@@ -207,22 +218,16 @@ def test_a_vehicle_whose_point_lies_just_off_a_crowd_s_blob_is_carved_out_of_it(
     # (real-alt60-lm6 seed 148 at 6.7 s: 0.25 px). Its pixels are still within the carve radius of the
     # point, so it is carved out: its own blob there, the crowd's blob without it.
     ground = texture(720, 1280, seed=4)
-    walkers = np.array([[600 + 30 * i, 330 + 30 * j] for i in range(3) for j in range(3)], float)
-    cfg = MotionConfig(merge_px=31, min_area_px=400.0, speckle="neighbours", process_scale=1.0)
-    det = MotionDetector(cfg)
+    det = MotionDetector(MotionConfig(merge_px=31, min_area_px=400.0, speckle="neighbours", process_scale=1.0))
     for k in range(6):
-        img = ground.copy()
-        for x, y in walkers + (4.0 * k, 0.0):
-            cv2.circle(img, (int(x), int(y)), 6, (20, 20, 20), -1)
         vx, vy = 610 + 8 * k, 405
-        cv2.rectangle(img, (vx - 12, vy - 8), (vx + 12, vy + 8), (60, 60, 60), -1)
         point = np.array([[vx, vy + 11]], float)
-        b = det.update(img, 0.1 * k, point, 22.0)
+        b = det.update(crowd_and_vehicle(ground, k, (vx, vy)), 0.1 * k, point, 22.0)
     assert b.blobs.xyxy_px[:, 3].max() < point[0, 1]                    # the point lies off every blob's box
     assert sorted(b.carved.tolist()) == [-1, 0]
     crowd = b.xy_px[b.carved == -1][0]
     assert np.hypot(*(b.xy_px[b.carved == 0][0] - point[0])) < 1.0
-    assert np.hypot(*(crowd - (walkers.mean(0) + (4.0 * 5, 0.0)))) < 6
+    assert np.hypot(*(crowd - (CROWD_OF_NINE.mean(0) + (4.0 * 5, 0.0)))) < 6
 
 
 def test_walkers_beside_a_vehicle_in_blobs_of_their_own_keep_their_pixels():
@@ -230,15 +235,11 @@ def test_walkers_beside_a_vehicle_in_blobs_of_their_own_keep_their_pixels():
     # half of it does not), the merging kernel too small to join them: the crowd's blobs are the same with the
     # vehicle's point given as without it. Off a blob's box, only pixels within half the disc are a vehicle's.
     ground = texture(720, 1280, seed=4)
-    walkers = np.array([[600 + 30 * i, 330 + 30 * j] for i in range(3) for j in range(3)], float)
     cfg = MotionConfig(merge_px=5, min_area_px=400.0, speckle="neighbours", process_scale=1.0)
     with_point, without = MotionDetector(cfg), MotionDetector(cfg)
     for k in range(6):
-        img = ground.copy()
-        for x, y in walkers + (4.0 * k, 0.0):
-            cv2.circle(img, (int(x), int(y)), 6, (20, 20, 20), -1)
         vx, vy = 600 + 4 * k, 412
-        cv2.rectangle(img, (vx - 6, vy - 4), (vx + 6, vy + 4), (60, 60, 60), -1)
+        img = crowd_and_vehicle(ground, k, (vx, vy), half=(6, 4))
         a = with_point.update(img, 0.1 * k, np.array([[vx, vy]], float), 22.0)
         b = without.update(img, 0.1 * k)
     assert sorted(a.carved.tolist()) == [-1, -1, -1, 0] and b.carved.tolist() == [-1, -1, -1]
