@@ -215,8 +215,8 @@ def test_a_vehicle_driving_through_a_crowd_is_carved_out_and_labelled():
 def test_a_vehicle_whose_point_lies_just_off_a_crowd_s_blob_is_carved_out_of_it():
     # the vehicle drives along the crowd's lower edge and only its body moved (on real ground its lower
     # half can match the ground's shade): its point, the label's centre, lies just below the blob's box
-    # (real-alt60-lm6 seed 148 at 6.7 s: 0.25 px). Its pixels are still within the carve radius of the
-    # point, so it is carved out: its own blob there, the crowd's blob without it.
+    # (real-alt60-lm6 seed 148 at 6.7 s: 0.25 px). Its pixels are still within half the carve radius of
+    # the point, so it is carved out: its own blob there, the crowd's blob without it.
     ground = texture(720, 1280, seed=4)
     det = MotionDetector(MotionConfig(merge_px=31, min_area_px=400.0, speckle="neighbours", process_scale=1.0))
     for k in range(6):
