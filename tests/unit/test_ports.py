@@ -8,6 +8,18 @@ import pytest
 from uvteam.io.ports import LOWEST_PORT, ephemeral_range, free_port
 
 
+class ScriptedPicks(random.Random):
+    """A random source whose ``randrange(start, stop)`` is ``script(call number, start, stop)``; counts its calls."""
+
+    def __init__(self, script):
+        super().__init__(0)
+        self.script, self.calls = script, 0
+
+    def randrange(self, start, stop=None, step=1):
+        self.calls += 1
+        return self.script(self.calls, start, stop)
+
+
 def test_the_ephemeral_range_is_read_from_the_kernel_or_is_ianas(tmp_path):
     f = tmp_path / "ip_local_port_range"
     f.write_text("32768\t60999\n")
@@ -32,19 +44,8 @@ def test_what_is_held_is_passed_over():
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as held:
         held.bind(("127.0.0.1", 0))
         held_port = held.getsockname()[1]
-
-        class Scripted(random.Random):
-            """The held port first, then the first port after it that binds."""
-
-            def __init__(self):
-                super().__init__(0)
-                self.calls = 0
-
-            def randrange(self, start, stop=None, step=1):
-                self.calls += 1
-                return held_port if self.calls == 1 else start + self.calls
-
-        pick = Scripted()
+        # the held port first, then the first port after it that binds
+        pick = ScriptedPicks(lambda n, start, stop: held_port if n == 1 else start + n)
         port = free_port(socket.SOCK_DGRAM, rng=pick, ephemeral=(held_port + 2000, 60999))
         assert port != held_port and pick.calls >= 2
 
@@ -54,20 +55,14 @@ def test_a_port_named_already_is_not_named_again():
     what it named (the demo gave two UGVs' links one port once)."""
     first = free_port(socket.SOCK_DGRAM)
 
-    class Repeating(random.Random):
-        def __init__(self):
-            super().__init__(0)
-            self.calls = 0
+    def repeating():
+        return ScriptedPicks(lambda n, start, stop: first if n < 3 else first + 1)
 
-        def randrange(self, start, stop=None, step=1):
-            self.calls += 1
-            return first if self.calls < 3 else first + 1
-
-    pick = Repeating()
+    pick = repeating()
     lo, _ = ephemeral_range()
     if lo - LOWEST_PORT < 1000:
         pytest.skip(f"no room below this machine's ephemeral range ({lo})")
-    assert free_port(socket.SOCK_DGRAM, rng=Repeating()) == first        # nothing holds it: named again
+    assert free_port(socket.SOCK_DGRAM, rng=repeating()) == first        # nothing holds it: named again
     assert free_port(socket.SOCK_DGRAM, rng=pick, taken={first}) == first + 1 and pick.calls == 3
     # the kernel's choice, when there is no room below its range, skips what was named too
     kernel = free_port(socket.SOCK_DGRAM, ephemeral=(1024, 65535))
@@ -105,19 +100,13 @@ def test_the_demo_names_no_port_twice_even_when_the_random_picks_repeat(tmp_path
     if lo - LOWEST_PORT < 1000:
         pytest.skip(f"no room below this machine's ephemeral range ({lo})")
     base = free_port()
+    real = random.SystemRandom()
 
-    class FewPorts(random.SystemRandom):
+    def few_ports():
         """Three ports in turn, over and over: the team needs more, so picks repeat."""
+        return ScriptedPicks(lambda n, start, stop: base + n % 3 if n < 40 else real.randrange(start, stop))
 
-        def __init__(self):
-            super().__init__()
-            self.calls = 0
-
-        def randrange(self, start, stop=None, step=1):
-            self.calls += 1
-            return base + self.calls % 3 if self.calls < 40 else super().randrange(start, stop)
-
-    monkeypatch.setattr(ports_module.random, "SystemRandom", FewPorts)
+    monkeypatch.setattr(ports_module.random, "SystemRandom", few_ports)
     team = Team(str(DEFAULT_SCENARIO), workdir=str(tmp_path), frames="sensor", map_http=f"127.0.0.1:{base + 1}")
     ports = [team.router_port, *team.ports.values()]
     assert len(set(ports)) == len(ports) and base + 1 not in ports, ports
