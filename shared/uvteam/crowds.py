@@ -89,7 +89,10 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    blob over them) is still reported for ``coast_s`` where its walk takes it, flagged with how long it
    has been unseen (``ReportedCrowd.unseen_s``). Its walk is the straight line fitted to its last
    ``scatter_s`` of estimates while it was seen whole (a crowd going out of sight goes part by part,
-   step 7). Its radius starts as the last estimate's, widened by how far its walk had it from where it
+   step 7): those of the track it is reported under, moved by as much as the crowd is off that track's
+   part in the frame (a crowd joined from parts walks where they are, not where its lead part does:
+   real-alt60-lm6 seed 148 at 24.1 s, a main part's walk 3.4 m from the crowd seen in two parts). Its
+   radius starts as the last estimate's, widened by how far its walk had it from where it
    was seen (a line fitted to a crowd that bends cuts the bend), and grows by the walk's velocity error
    (the fit's standard error, at least ``coast_sigma_v_m_s`` per axis, and no less than the walk's and
    the track's latest velocity disagree, per axis) times the time unseen and by the crowd's own change
@@ -114,7 +117,8 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    there: ``coast_s`` is the bargain (docs/results-worlds.md measures it);
 7. a crowd seen with fewer moving pixels than it usually has (its median over the last ``window_s``;
    counted afresh from a frame in which its blob let a crowd of step 4 out: what it had was two crowds',
-   field-alt100-lm6 seed 3 at 45.4-47.0 s placed 2.4-3.1 m off, between the two) is partly out of
+   field-alt100-lm6 seed 3 at 45.4-47.0 s placed 2.4-3.1 m off, between the two; so too from a frame in
+   which its parts became two crowds, the two-crowd world's seeds 141 and 143) is partly out of
    sight, and what is seen of it lies to one side: with ``seen_whole`` of them or more
    it is where it is seen, with ``seen_none`` or fewer where its walk takes it (step 6), and in
    between at a point between the two by the share seen, its radius the larger of the two. While it is
@@ -172,7 +176,11 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    moving pixels unchanged is first skipped for ``smooth_skip_frames`` frames in a row, the crowd reported where
    the filter has it: a frame's transform can jump where its crowd cannot (real-alt120-lm6-gnss1 seed 6 at
    39.0 s, a fit on four landmarks 3.3 m off the frames before and after; afresh there, the filter took a second
-   to come back, 3.65 m off at worst). Its 95 % radius holds what is left of
+   to come back, 3.65 m off at worst). A crowd partly seen (step 7) is taken at the noise its radius
+   declares, not its track's: where step 7 places it is no estimate (real-alt60-lm6 seed 148 at 24.2 s, a
+   placement 2.1 m off was skipped, then started the filter afresh, 4.0 m off, and the filter took 0.6 s to come
+   back). A crowd whose blob let a crowd out (step 4) or whose parts became two crowds starts it afresh:
+   its centre jumps, and its measured velocity would hold it where both were. Its 95 % radius holds what is left of
    the declared frame noise after the filter in place of that noise. Landmarks with consumer GNSS jitter the
    transform from fix to fix, so a crowd's estimates scatter by a metre about where it walks:
    field-alt100-lm6's tuning seeds 1-3 (open loop, `docs/grouping_replay.py`) 1.199 -> 0.879 m of mean error
@@ -679,6 +687,11 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
         walk = straight_walk(tuple(p for p in tr.trail if p[0] >= stamp_s - cfg.scatter_s - 1e-6), stamp_s,
                              cfg.scatter_min_points)
         at, v, sigma_v = walk or ((c.east_m, c.north_m), (tr.v_east_m_s, tr.v_north_m_s), float("inf"))
+        if walk is not None and tr.trail and tr.trail[-1][0] == stamp_s:
+            # the walk is its lead part's: a crowd joined from parts walks where they are, off that part
+            # by as much as the crowd is this frame (real-alt60-lm6 seed 148 at 24.1 s: a main part's
+            # walk 3.4 m from the crowd seen in two parts placed it there once the other part went)
+            at = (at[0] + c.east_m - tr.trail[-1][1], at[1] + c.north_m - tr.trail[-1][2])
         # where its walk has it and where it is seen, the walk's velocity and the track's latest, disagree
         # on a crowd that bends (the line cuts the bend): it is held no surer than they agree
         r95 = float(np.hypot(c.radius95_m, np.hypot(at[0] - c.east_m, at[1] - c.north_m)))
@@ -873,6 +886,13 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
         of_lead[trk[lead].track_id] = [trk[k].track_id for k in members]
         if (apart_parts := _parts_apart([estimates[k] for k in members])) is not None:
             apart_now[trk[lead].track_id] = apart_parts
+    # a crowd whose parts are two crowds from this frame is one crowd less too: what it had is no part seen
+    was: dict[int, set[int]] = {}
+    for lead_id, members in of_lead.items():
+        for t in members:
+            if (cid := state.crowd_of.get(t)) is not None:
+                was.setdefault(cid, set()).add(lead_id)
+    released.update(t for leads in was.values() if len(leads) > 1 for t in leads)
     out, last_seen, alias, coasted, inside, still_two = _remembered(
         state, out, stamp_s, cfg, live, frozenset(holds), frozenset(released),
         {trk[k].track_id: cid for k, (_, cid) in came_out.items()} | anew)
@@ -883,7 +903,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     out.sort(key=lambda c: (-c.track.hits, c.crowd_id))
     apart = frozenset(p for p in apart if p[0] in live and p[1] in live)   # forgotten with either track
     holds = {x: v for x, v in holds.items() if v and x in live}
-    out, smoothed = _smoothed(state.smoothed, out, fast_of, stamp_s, cfg)
+    out, smoothed = _smoothed(state.smoothed, out, fast_of, stamp_s, cfg, frozenset(released))
     return GroupingState(tracker, apart, streak, holds, last_seen, alias, drifted & apart, joined, crowd_of,
                          inside, still_two, smoothed, in_parts), out
 
@@ -985,7 +1005,8 @@ SMOOTH_START_SIGMA_V_M_S = 1.0   # a fresh filter's velocity (its track's) known
 
 
 def _smoothed(prev: Mapping[int, Smoothed], crowds: list[ReportedCrowd], fast_of: Mapping[int, float | None],
-              stamp_s: float, cfg: GroupingConfig) -> tuple[list[ReportedCrowd], dict[int, Smoothed]]:
+              stamp_s: float, cfg: GroupingConfig, afresh: frozenset[int] = frozenset()
+              ) -> tuple[list[ReportedCrowd], dict[int, Smoothed]]:
     """Step 10: each crowd seen placed where its filter has it, its radius holding what the filter leaves of the
     declared frame noise in place of that noise; the filters, per crowd id. ``fast_of``: per track seen this
     frame, :func:`fast_scatter_m` of its trail (step 1's); a crowd whose track has none yet is reported as
@@ -1000,7 +1021,9 @@ def _smoothed(prev: Mapping[int, Smoothed], crowds: list[ReportedCrowd], fast_of
             continue
         c = r.estimate
         sigma_m = max(fast, cfg.smooth_min_sigma_m)
-        f = _filter_step(prev.get(r.crowd_id), r, sigma_m, stamp_s, cfg)
+        if r.partly_seen:
+            sigma_m = max(sigma_m, c.radius95_m / R95_PER_SIGMA)
+        f = _filter_step(None if r.track.track_id in afresh else prev.get(r.crowd_id), r, sigma_m, stamp_s, cfg)
         kept[r.crowd_id] = f
         left95 = R95_PER_SIGMA * float(np.sqrt((f.P[0, 0] + f.P[1, 1]) / 2.0))
         noise95 = min(R95_PER_SIGMA * sigma_m, c.frame_radius95_m, c.radius95_m)
