@@ -19,7 +19,8 @@ business (:mod:`uvteam.nodes.localizer`). Per frame, :func:`localize_step` runs 
    (``image_coordinates``), the other when the first is missing.
 4. :func:`fit_transform` -- the transform from >= 4 usable landmarks: exact (4), least squares (> 4),
    robust with named outliers (>= 5). What was known before this frame (the last transform while it
-   is fresh, else the camera's pose) is a prior: it tells which landmark lies when several consensus
+   is fresh, known at each point as well as its own landmarks' noise makes it there, else the camera's
+   pose) is a prior: it tells which landmark lies when several consensus
    sets are as large, and a four-landmark fit that disagrees with it is flagged SUSPECT (its radius
    covers the disagreement). With fewer landmarks, the last good transform is held for ``hold_max_s``
    (HELD), else the camera's pose places the crowd (POSE: its ray onto the ground, less the bias learnt
@@ -254,7 +255,9 @@ class Prior:
 
     source: str                             # "last_fit" | "pose"
     fit: Homography | None = None
-    fit_sigma_m: float = 0.0
+    fit_sigma_m: float = 0.0                # how far the camera's motion moves it since, 1 sigma per axis
+    fit_landmark_sigma_px: float = 0.0      # its landmarks' noise, pixels and (n,) GNSS m: how well it is
+    fit_landmark_sigma_m: np.ndarray | None = None  # known away from them (None: as well as at them)
     pose: PosePrior | None = None
     bias_en_m: np.ndarray | None = None
     bias_var_m2: float | None = None        # None: nothing learnt yet, the pose's own error model holds
@@ -457,7 +460,10 @@ def prior_of(state: LocalizerState, obs: FrameObservation, cfg: LocalizerConfig)
     the camera's pose less its learnt bias, else none."""
     age = obs.stamp_s - state.last_fit_stamp_s
     if state.last_fit is not None and 0.0 <= age <= cfg.prior_max_age_s:
-        return Prior("last_fit", fit=state.last_fit, fit_sigma_m=cfg.prior_sigma_m + cfg.prior_growth_m_s * age)
+        scale = landmark_noise_scale(state)
+        return Prior("last_fit", fit=state.last_fit, fit_sigma_m=cfg.prior_sigma_m + cfg.prior_growth_m_s * age,
+                     fit_landmark_sigma_px=cfg.sigmas_px(obs)[0] * scale,
+                     fit_landmark_sigma_m=None if state.last_fit_sigma_m is None else state.last_fit_sigma_m * scale)
     if obs.pose is not None:
         learnt = state.pose_bias_n >= POSE_BIAS_MIN_FRAMES
         return Prior("pose", pose=obs.pose, bias_en_m=np.array(state.pose_bias_en_m) if learnt else np.zeros(2),
@@ -498,9 +504,16 @@ def _misfit(prior: Prior, px: np.ndarray, en: np.ndarray, sigma_m: np.ndarray) -
         miss = np.sqrt(((prior.px_to_ground(px) - en) ** 2).sum(1))
         misfit = miss / np.hypot(prior.sigma_m(en), sigma_m)
     else:   # the last transform: a handful of landmarks, in plain floats
+        # known as well as its own landmarks made it there: a fit on four noisy fixes is no prior far from them
+        # (real-alt60-lm6-gnss1 seed 162 at 0.9 s: two good landmarks 13 sigmas off such a fit were dropped)
+        own = [0.0] * len(px)
+        if prior.fit_landmark_sigma_m is not None:
+            _, cov = prior.fit.map_points_with_cov(px, 0.0, prior.fit_landmark_sigma_px, prior.fit_landmark_sigma_m)
+            own = np.sqrt(0.5 * (cov[:, 0, 0] + cov[:, 1, 1])).tolist()
         out = []
-        for (me, mn), (e, n), s in zip(map_few(prior.fit.H_ground_from_px, px.tolist()), en.tolist(), sigma_m.tolist()):
-            miss, scale = sqrt((me - e) * (me - e) + (mn - n) * (mn - n)), hypot(prior.fit_sigma_m, s)
+        for (me, mn), (e, n), s, o in zip(map_few(prior.fit.H_ground_from_px, px.tolist()), en.tolist(), sigma_m.tolist(),
+                                          own):
+            miss, scale = sqrt((me - e) * (me - e) + (mn - n) * (mn - n)), sqrt(prior.fit_sigma_m ** 2 + s * s + o * o)
             out.append(miss / scale if scale > 0 else (inf if miss > 0 else nan))
         misfit = np.array(out)
     return misfit if np.isfinite(misfit).all() else np.nan_to_num(misfit, nan=1e6)

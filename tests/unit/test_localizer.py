@@ -1,5 +1,9 @@
+from dataclasses import replace
+
 import numpy as np
 import pytest
+
+from uvteam import localizer
 
 from uvteam.blobs import Blobs, Landmarks
 from uvteam.camera import CameraPose, PinholeCamera, project
@@ -68,6 +72,33 @@ def test_robust_names_bad_gnss_landmark():
     assert res.quality == FitQuality.ROBUST and res.outlier_landmarks == ("magenta",)
     assert np.hypot(res.crowds[0].east_m - 2.0, res.crowds[0].north_m - 3.0) < 1e-6
     assert res.crowds[0].n_outliers == 1
+
+
+def test_a_prior_fitted_on_four_noisy_fixes_does_not_name_good_landmarks_far_from_them(monkeypatch):
+    # four UGVs 10 m apart, their fixes 0.6 m off (declared 1 m), give the first transform, exact; the next frame
+    # two more UGVs 15-25 m from them come into view, their fixes right. Mapped by the four's transform they lie
+    # 4.6 and 14.5 of its sigmas off if it were known as well there as at its own landmarks, and the fit dropped
+    # both (real-alt60-lm6-gnss1 seed 162 at 0.9 s: the crowd 5.5 m off); known as well as four fixes make it
+    # there, they agree with it, and all six are fitted
+    truth = {"red": (0.0, 0.0), "green": (10.0, 0.0), "blue": (0.0, 10.0), "yellow": (10.0, 10.0),
+             "magenta": (24.0, 6.0), "cyan": (-18.0, 12.0)}
+    off = {"red": (0.6, -0.6), "green": (-0.6, 0.6), "blue": (0.6, 0.6), "yellow": (-0.6, -0.6)}
+    tracks = {u: track_at(np.add(en, off.get(u, (0.0, 0.0))), sigma=1.0) for u, en in truth.items()}
+    four = {u: truth[u] for u in off}
+    crowd = np.array([[10.0, -6.0]])
+
+    def second_frame():
+        st, first = localize_step(LocalizerState(), observation(1.0, four, crowd), tracks, cfg())
+        assert first.quality == FitQuality.EXACT
+        return localize_step(st, observation(1.1, truth, crowd), tracks, cfg())[1]
+
+    res = second_frame()
+    assert res.quality == FitQuality.LEAST_SQUARES and res.outlier_landmarks == ()
+    assert np.hypot(res.crowds[0].east_m - 10.0, res.crowds[0].north_m + 6.0) < 1.0
+    prior_of = localizer.prior_of     # the prior known as well everywhere as at its own landmarks
+    monkeypatch.setattr(localizer, "prior_of", lambda *a: (p := prior_of(*a)) and replace(p, fit_landmark_sigma_m=None))
+    res = second_frame()
+    assert res.quality == FitQuality.ROBUST and res.outlier_landmarks == ("cyan", "magenta")
 
 
 def test_holds_last_transform_then_fails():

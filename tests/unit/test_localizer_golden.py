@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from uvteam import localizer
 from uvteam.blobs import Blobs
 from uvteam.localizer import R95_PER_SIGMA, LocalizerConfig, localize_step, ugv_positions
 
@@ -33,8 +34,14 @@ def _upgraded(x):
 
 
 @pytest.mark.parametrize("k", range(31))
-def test_step_gives_the_recorded_result(k):
+def test_step_gives_the_recorded_result(k, monkeypatch):
     state, obs, tracks, cfg, (want_state, want) = _steps()[k]
+    # the last transform as a prior known as well everywhere as at its own landmarks, as when recorded (known as
+    # well as they make it there came later, test_localizer.py: 3 of these 31 steps then keep a landmark the
+    # recorded fit named, ROBUST -> LEAST_SQUARES)
+    prior_of = localizer.prior_of
+    monkeypatch.setattr(localizer, "prior_of", lambda *a: (p := prior_of(*a)) and dataclasses.replace(
+        p, fit_landmark_sigma_m=None))
     cfg = LocalizerConfig(**cfg)    # new fields: their defaults
     got_state, got = localize_step(_upgraded(state), _upgraded(obs), tracks, cfg)
     assert got.quality == want.quality and got.landmarks_used == want.landmarks_used

@@ -152,7 +152,10 @@ def test_every_step_is_the_step_it_was(seed, monkeypatch):
     # label needing a blob of its own came later: test_localizer.py tests it), and a UGV's own blob however
     # small (one under min_vehicle_blob_m2 claiming the rest of the vehicle came later: test_perception.py),
     # and under a landmark fit at that reach whatever the fix's error (its 95 % radius added came later:
-    # test_localizer.py tests it)
+    # test_localizer.py tests it); and the last transform as a prior known as well everywhere as at its own
+    # landmarks (known as well as they make it there came later: test_localizer.py tests it)
+    prior_of = now.prior_of
+    monkeypatch.setattr(now, "prior_of", lambda *a: (p := prior_of(*a)) and replace(p, fit_landmark_sigma_m=None))
     claim = now.claim_blobs
     monkeypatch.setattr(now, "claim_blobs", lambda to_px, obs, positions, pairing, cfg, pose_sigma_m=None:
                         claim(to_px, obs, {u: replace(p, sigma_m=0.0) for u, p in positions.items()}, pairing, cfg))
