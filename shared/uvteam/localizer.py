@@ -511,8 +511,8 @@ def _misfit(prior: Prior, px: np.ndarray, en: np.ndarray, sigma_m: np.ndarray) -
             _, cov = prior.fit.map_points_with_cov(px, 0.0, prior.fit_landmark_sigma_px, prior.fit_landmark_sigma_m)
             own = np.sqrt(0.5 * (cov[:, 0, 0] + cov[:, 1, 1])).tolist()
         out = []
-        for (me, mn), (e, n), s, o in zip(map_few(prior.fit.H_ground_from_px, px.tolist()), en.tolist(), sigma_m.tolist(),
-                                          own):
+        mapped = map_few(prior.fit.H_ground_from_px, px.tolist())
+        for (me, mn), (e, n), s, o in zip(mapped, en.tolist(), sigma_m.tolist(), own):
             miss, scale = sqrt((me - e) * (me - e) + (mn - n) * (mn - n)), sqrt(prior.fit_sigma_m ** 2 + s * s + o * o)
             out.append(miss / scale if scale > 0 else (inf if miss > 0 else nan))
         misfit = np.array(out)
