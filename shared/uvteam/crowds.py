@@ -179,8 +179,7 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    to come back, 3.65 m off at worst). A crowd partly seen (step 7) is taken at the noise its radius
    declares, not its track's: where step 7 places it is no estimate (real-alt60-lm6 seed 148 at 24.2 s, a
    placement 2.1 m off was skipped, then started the filter afresh, 4.0 m off, and the filter took 0.6 s to come
-   back). A crowd whose blob let a crowd out (step 4) or whose parts became two crowds starts it afresh:
-   its centre jumps, and its measured velocity would hold it where both were. Its 95 % radius holds what is left of
+   back). Its 95 % radius holds what is left of
    the declared frame noise after the filter in place of that noise. Landmarks with consumer GNSS jitter the
    transform from fix to fix, so a crowd's estimates scatter by a metre about where it walks:
    field-alt100-lm6's tuning seeds 1-3 (open loop, `docs/grouping_replay.py`) 1.199 -> 0.879 m of mean error
@@ -903,7 +902,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     out.sort(key=lambda c: (-c.track.hits, c.crowd_id))
     apart = frozenset(p for p in apart if p[0] in live and p[1] in live)   # forgotten with either track
     holds = {x: v for x, v in holds.items() if v and x in live}
-    out, smoothed = _smoothed(state.smoothed, out, fast_of, stamp_s, cfg, frozenset(released))
+    out, smoothed = _smoothed(state.smoothed, out, fast_of, stamp_s, cfg)
     return GroupingState(tracker, apart, streak, holds, last_seen, alias, drifted & apart, joined, crowd_of,
                          inside, still_two, smoothed, in_parts), out
 
@@ -1005,8 +1004,7 @@ SMOOTH_START_SIGMA_V_M_S = 1.0   # a fresh filter's velocity (its track's) known
 
 
 def _smoothed(prev: Mapping[int, Smoothed], crowds: list[ReportedCrowd], fast_of: Mapping[int, float | None],
-              stamp_s: float, cfg: GroupingConfig, afresh: frozenset[int] = frozenset()
-              ) -> tuple[list[ReportedCrowd], dict[int, Smoothed]]:
+              stamp_s: float, cfg: GroupingConfig) -> tuple[list[ReportedCrowd], dict[int, Smoothed]]:
     """Step 10: each crowd seen placed where its filter has it, its radius holding what the filter leaves of the
     declared frame noise in place of that noise; the filters, per crowd id. ``fast_of``: per track seen this
     frame, :func:`fast_scatter_m` of its trail (step 1's); a crowd whose track has none yet is reported as
@@ -1023,7 +1021,7 @@ def _smoothed(prev: Mapping[int, Smoothed], crowds: list[ReportedCrowd], fast_of
         sigma_m = max(fast, cfg.smooth_min_sigma_m)
         if r.partly_seen:
             sigma_m = max(sigma_m, c.radius95_m / R95_PER_SIGMA)
-        f = _filter_step(None if r.track.track_id in afresh else prev.get(r.crowd_id), r, sigma_m, stamp_s, cfg)
+        f = _filter_step(prev.get(r.crowd_id), r, sigma_m, stamp_s, cfg)
         kept[r.crowd_id] = f
         left95 = R95_PER_SIGMA * float(np.sqrt((f.P[0, 0] + f.P[1, 1]) / 2.0))
         noise95 = min(R95_PER_SIGMA * sigma_m, c.frame_radius95_m, c.radius95_m)

@@ -727,23 +727,6 @@ def test_a_crowd_whose_parts_become_two_crowds_is_seen_where_its_own_part_is():
         assert (north.estimate.east_m, north.estimate.north_m) == pytest.approx((1.4 * (seconds - 0.1), 0.0), abs=1e-6)
 
 
-def test_the_filter_of_a_crowd_whose_parts_become_two_crowds_starts_afresh():
-    # the same with step 10 and the walkers' velocity measured (changes of moving pixels then start nothing
-    # afresh): the crowd that keeps the id starts its filter afresh at its own part from the frame they are two,
-    # not held a frame where the filter of both has it, 2.6 m south
-    state, rows = GroupingState(), []
-    for f in range(80):
-        t = f / 10.0
-        ests = tuple(replace(estimate(e, n, area=a, r95=0.6, half=h), frame_radius95_m=0.25, steady_radius95_m=0.5,
-                             v_en_m_s=(1.4, 0.0), sigma_v_m_s=0.02) for e, n, a, h in side_by_side_then_apart(t))
-        state, out = report_crowds(state, ests, T0 + t, GroupingConfig())
-        rows.append((t, out))
-    split = next(k for k, (t, out) in enumerate(rows) if t > 4.0 and len(out) == 2)
-    t, out = rows[split]
-    north = min(out, key=lambda r: abs(r.estimate.north_m))
-    assert np.hypot(north.estimate.east_m - 1.4 * t, north.estimate.north_m) < 0.05
-
-
 def test_a_crowd_partly_seen_far_from_its_filter_is_not_reported_there():
     # step 10, the walkers' velocity measured: a crowd seen whole for 4 s, then for two frames with 75 % of its
     # moving pixels and its blob 3 m north (step 7 places it 2.1 m north of its walk, with the walk's radius).
