@@ -179,8 +179,8 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    to come back, 3.65 m off at worst). A crowd partly seen (step 7) is taken at the noise its radius
    declares, not its track's: where step 7 places it is no estimate (real-alt60-lm6 seed 148 at 24.2 s, a
    placement 2.1 m off was skipped, then started the filter afresh, 4.0 m off, and the filter took 0.6 s to come
-   back). Its 95 % radius holds what is left of
-   the declared frame noise after the filter in place of that noise. Landmarks with consumer GNSS jitter the
+   back). Its 95 % radius holds what is left of the declared frame noise after the filter in place of that
+   noise. Landmarks with consumer GNSS jitter the
    transform from fix to fix, so a crowd's estimates scatter by a metre about where it walks:
    field-alt100-lm6's tuning seeds 1-3 (open loop, `docs/grouping_replay.py`) 1.199 -> 0.879 m of mean error
    with the filter, the other worlds' within 0.01 m (docs/results-worlds.md, session 41). That is white noise
