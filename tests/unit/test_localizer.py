@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 
 from uvteam import localizer
-
 from uvteam.blobs import Blobs, Landmarks
 from uvteam.camera import CameraPose, PinholeCamera, project
 from uvteam.homography import FitQuality
