@@ -506,12 +506,12 @@ def _misfit(prior: Prior, px: np.ndarray, en: np.ndarray, sigma_m: np.ndarray) -
     else:   # the last transform: a handful of landmarks, in plain floats
         # known as well as its own landmarks made it there: a fit on four noisy fixes is no prior far from them
         # (real-alt60-lm6-gnss1 seed 162 at 0.9 s: two good landmarks 13 sigmas off such a fit were dropped)
-        own = [0.0] * len(px)
-        if prior.fit_landmark_sigma_m is not None:
-            _, cov = prior.fit.map_points_with_cov(px, 0.0, prior.fit_landmark_sigma_px, prior.fit_landmark_sigma_m)
-            own = np.sqrt(0.5 * (cov[:, 0, 0] + cov[:, 1, 1])).tolist()
+        if prior.fit_landmark_sigma_m is None:
+            mapped, own = map_few(prior.fit.H_ground_from_px, px.tolist()), [0.0] * len(px)
+        else:    # the points come mapped with their covariances: not mapped twice
+            at, cov = prior.fit.map_points_with_cov(px, 0.0, prior.fit_landmark_sigma_px, prior.fit_landmark_sigma_m)
+            mapped, own = at.tolist(), np.sqrt(0.5 * (cov[:, 0, 0] + cov[:, 1, 1])).tolist()
         out = []
-        mapped = map_few(prior.fit.H_ground_from_px, px.tolist())
         for (me, mn), (e, n), s, o in zip(mapped, en.tolist(), sigma_m.tolist(), own):
             miss, scale = sqrt((me - e) * (me - e) + (mn - n) * (mn - n)), sqrt(prior.fit_sigma_m ** 2 + s * s + o * o)
             out.append(miss / scale if scale > 0 else (inf if miss > 0 else nan))
