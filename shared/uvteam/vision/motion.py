@@ -637,7 +637,7 @@ class MotionDetector:
                carve_radius_px: float = 0.0, carve_ids: Sequence | None = None) -> MotionResult:
         """Blobs moving in ``frame``. ``carve_xy_px`` (full-resolution points, e.g. color-detected
         vehicles) split a blob that holds one of them, or has moving pixels within half ``carve_radius_px``
-        of one, and is more than the carved disc: the moving pixels within that radius of the point (of its
+        of one, and is more than the carved disc: the moving pixels within ``carve_radius_px`` of the point (of its
         path, below) become a blob of their own, the rest another, so a vehicle driving through a crowd
         neither hides the crowd nor is reported as part of it; what is left is a crowd only if one group
         of it is crowd-sized on its own (not the trails of two vehicles side by side). Such a vehicle's
