@@ -152,10 +152,11 @@ def _measure(n_blobs: int, rounds: int, frames_per_batch: int, detector: str = "
     n_cmp, worst = 0, float("nan")
     if before is not None:
         cfg_before = before.LocalizerConfig()
-        # the same step: the landmarks' noise as declared, as the step was then (learning it from the
-        # fits' residuals came later and changes radii only); timed below as deployed, learning on
+        # the same step: the landmarks' noise as declared and no crowd fused with the pose, as the step was
+        # then (both came later and move estimates and radii only); timed below as deployed, both on
         n_cmp, worst = same_results(before, now, tracks, frames, cfg_before,
-                                    now.LocalizerConfig(learn_landmark_noise=False), cycles=2 if n_blobs > 1000 else 3)
+                                    now.LocalizerConfig(learn_landmark_noise=False, fuse_pose=False),
+                                    cycles=2 if n_blobs > 1000 else 3)
     # what the yardstick gets per frame: the landmarks (pixels and where the fixes put them), the blobs' points
     yard = []
     for f in frames:

@@ -59,7 +59,7 @@ from .vocab import IMAGE_COORDINATES, SOLVERS, FitQuality, check_choice
 __all__ = [
     "UgvTrack", "FrameObservation", "LocalizerConfig", "LocalizerState", "CrowdEstimate", "StepResult",
     "UgvPosition", "Pairing", "FitOutcome", "ugv_position_at", "ugv_positions", "pair_landmarks",
-    "landmark_pixels", "fit_transform", "claim_blobs", "map_targets", "localize_step", "ugv_track",
+    "landmark_pixels", "fit_transform", "claim_blobs", "map_targets", "fuse_with_pose", "localize_step", "ugv_track",
 ]
 R95_PER_SIGMA = 2.4477      # the 95 % circle of an isotropic 2-D Gaussian, in sigmas
 
@@ -150,6 +150,7 @@ class LocalizerConfig:
     moving_m_s: float = 0.2                 # a UGV reported faster than this moves: its label alone excuses no claim
     min_vehicle_blob_m2: float = 4.0        # a UGV's own blob smaller than this (m2) is a piece of it: the rest is claimed
     pose_bias_rate: float = 0.05            # how fast the pose's bias against landmark transforms is learnt
+    fuse_pose: bool = True                  # a fit's crowds fused with the pose's placement until that bias is learnt
     learn_landmark_noise: bool = True       # widen the landmarks' declared noise by what the fits' residuals show
     residual_rate: float = 0.05             # ... learnt this fast
 
@@ -592,12 +593,15 @@ _BOX_CORNERS = np.array([0, 1, 2, 1, 2, 3, 0, 3])   # xyxy -> (x0, y0), (x1, y0)
 
 def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landmark_px: float,
                 sigma_target_px: float, cfg: LocalizerConfig, px_per_m: float | None = None,
-                landmark_scale: float = 1.0, sigma_target_frame_px: float | None = None) -> tuple[CrowdEstimate, ...]:
+                landmark_scale: float = 1.0, sigma_target_frame_px: float | None = None,
+                pose: Prior | None = None) -> tuple[CrowdEstimate, ...]:
     """Phase 5b: the target blobs (indices) on the ground with their 95 % radii and footprints; the
     landmarks' noise (pixel and GNSS) times ``landmark_scale``. Each radius also says how much of it is
     noise that changes from frame to frame (the landmarks', and ``sigma_target_frame_px`` of the
     target's; None: all of it), and of that what the noise the fixes declare makes (where a steady part is
-    declared: only that part is narrowed by it, :mod:`.crowds`). A point beyond the horizon of a bad
+    declared: only that part is narrowed by it, :mod:`.crowds`). With ``pose`` (the camera's pose whose
+    errors owe nothing to the landmarks: its bias not yet learnt against them), a fresh fit's placement is
+    fused with the pose's where they agree (:func:`fuse_with_pose`). A point beyond the horizon of a bad
     transform is dropped: never a NaN on the map."""
     if not len(targets):
         return ()
@@ -623,15 +627,18 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
         to_ground = h.px_to_ground
         s_lm, s_m = sigma_landmark_px * landmark_scale, np.asarray(fit.sigma_m, float) * landmark_scale
         all_per_frame = sigma_target_frame_px is None or sigma_target_frame_px == sigma_target_px
-        if all_per_frame:    # then no steady part is declared
-            en, (cov,) = h.map_points_with_covs(centre_px, (sigma_target_px,), s_lm, s_m)
-            r95 = frame_r95 = radius95_m(cov)
-        else:
-            en, covs = h.map_points_with_covs(centre_px, (sigma_target_px, sigma_target_frame_px), s_lm, s_m,
-                                              fixes_alone=steady > 0)
-            r95, frame_r95 = radius95_m(covs[0]), radius95_m(covs[1])
-            if steady > 0:
-                fix_sigma = np.sqrt(0.5 * (covs[2][:, 0, 0] + covs[2][:, 1, 1]))
+        fuse = pose is not None and q in _FUSED_WITH_POSE
+        sigmas = (sigma_target_px,) if all_per_frame else (sigma_target_px, sigma_target_frame_px)
+        en, covs = h.map_points_with_covs(centre_px, sigmas + ((0.0,) if fuse else ()), s_lm, s_m,
+                                          fixes_alone=steady > 0)
+        if fuse:
+            en_fit = en
+            at = pose.px_to_ground(centre_px)
+            en, covs, floor_r95 = fuse_with_pose(en, covs, len(sigmas), at, pose.sigma_m(at))
+        r95 = radius95_m(covs[0]) if not fuse else np.maximum(radius95_m(covs[0]), floor_r95)
+        frame_r95 = r95 if all_per_frame else radius95_m(covs[1])
+        if steady > 0:
+            fix_sigma = np.sqrt(0.5 * (covs[-1][:, 0, 0] + covs[-1][:, 1, 1]))
         if fit.quality == FitQuality.HELD:
             r95 = r95 + cfg.held_growth_m_s * fit.age_s
             if all_per_frame:    # then the whole radius is the per-frame part, the held fit's growth included
@@ -640,6 +647,8 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
             off = np.sqrt(((en - fit.prior.px_to_ground(centre_px)) ** 2).sum(1))
             r95 = np.maximum(r95, off + R95_PER_SIGMA * fit.prior.sigma_m(en))
         fp = to_ground(corners).reshape(-1, 4, 2)
+        if fuse:    # the footprint moves with its centre
+            fp = fp + (en - en_fit)[:, None, :]
         n_out = int(len(h.inliers) - h.inliers.sum())
     finite = np.isfinite(np.column_stack([en, r95, fp.reshape(-1, 8)])).all(1)
     keep = range(len(targets)) if finite.all() else np.flatnonzero(finite).tolist()
@@ -648,6 +657,45 @@ def map_targets(fit: FitOutcome, blobs: Blobs, targets: np.ndarray, sigma_landma
     vel = _ground_velocities(to_ground, blobs, targets, centre_px, en)
     return tuple(CrowdEstimate(idx[k], e[k], n[k], fp[k], r[k], q, n_out, area[k], rf[k], min(steady, r[k]), fx[k],
                                *vel[k]) for k in keep)
+
+
+_FUSED_WITH_POSE = (FitQuality.EXACT, FitQuality.LEAST_SQUARES, FitQuality.ROBUST)
+POSE_FUSE_GATE = 9.21   # chi-square, 2 degrees of freedom, 99 %: a fit and a pose further apart are not fused
+
+
+def fuse_with_pose(en_fit: np.ndarray, covs: list[np.ndarray], n_target: int, en_pose: np.ndarray,
+                   sigma_pose_m: np.ndarray) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
+    """A fresh fit's placements (``en_fit``, (N, 2)) fused with the camera pose's of the same pixels
+    (``en_pose``, 1-sigma ``sigma_pose_m`` per axis), each weighed by its covariance, where the two agree
+    within ``POSE_FUSE_GATE``. ``covs``: the fit's (N, 2, 2) covariances from
+    :meth:`Homography.map_points_with_covs`, the first ``n_target`` with the target's pixel noise, then
+    the transform's alone (none: the weights), then, if there, the fixes' alone. Returns the placements and
+    the covariances without the transform's own: the target's pixel noise is common to both placements (the
+    same pixel), so it is kept as the fit had it; the pose's part, a bias for the run, is no noise from frame
+    to frame (not in the second covariance when ``n_target`` is 2).
+
+    Four landmarks with 1 m GNSS noise at 120 m make a transform known to 4-5 m at the crowd, the pose to 2 m
+    (real-alt120-lm6-gnss1 seed 160 at 1.0 s: the fit 3.6 m off, the pose 0.4 m); six exact fixes make it
+    known to centimetres, and the pose moves it by as much less. Once the pose's bias is learnt against the
+    fits it owes its placement to them: then it is no independent second opinion and nothing is fused."""
+    C = covs[n_target]
+    S = sigma_pose_m[:, None, None] ** 2 * np.eye(2)
+    y = en_pose - en_fit
+    CS = C + S
+    d2 = np.einsum("ni,ni->n", y, np.linalg.solve(CS, y[:, :, None])[:, :, 0])
+    ok = np.isfinite(d2) & (d2 <= POSE_FUSE_GATE) & np.isfinite(en_pose).all(1)
+    W_p = np.linalg.solve(CS.transpose(0, 2, 1), C.transpose(0, 2, 1)).transpose(0, 2, 1)  # C (C + S)^-1
+    W_f = np.eye(2) - W_p                                                                    # S (C + S)^-1
+    W_p[~ok], W_f[~ok] = 0.0, np.eye(2)
+    en = en_fit + np.einsum("nij,nj->ni", W_p, np.where(ok[:, None], y, 0.0))
+    lm_now = W_f @ C @ W_f.transpose(0, 2, 1)
+    out = [lm_now + W_p @ S @ W_p.transpose(0, 2, 1) + (covs[0] - C)]
+    out += [lm_now + (c - C) for c in covs[1:n_target]]
+    out += [W_f @ c @ W_f.transpose(0, 2, 1) for c in covs[n_target + 1:]]
+    # further apart, one of them is wrong: the fit's placement kept, its radius reaching the pose's too
+    floor = np.where(ok | ~np.isfinite(en_pose).all(1), 0.0,
+                     np.sqrt((y * y).sum(1)) + R95_PER_SIGMA * sigma_pose_m)
+    return en, out, np.nan_to_num(floor)
 
 
 VELOCITY_STEP_S = 0.5   # a blob's velocity is taken onto the ground as the step it makes in this long
@@ -744,9 +792,12 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: Mapping[
             pose_sigma = prior.sigma_m
         is_ugv = pairing.is_ugv | claim_blobs(to_px, obs, positions, pairing, cfg, pose_sigma)
         is_ugv[list(pairing.blob_of_ugv.values())] = True
+        own_pose = None    # the pose, while its bias is not learnt against the fits: independent of them
+        if cfg.fuse_pose and obs.pose is not None and state.pose_bias_n < POSE_BIAS_MIN_FRAMES:
+            own_pose = Prior("pose", pose=obs.pose, bias_en_m=np.zeros(2))
         crowds = map_targets(fit, obs.blobs, np.flatnonzero(~is_ugv), s_lm, s_tg, cfg, obs.px_per_m,
                              landmark_noise_scale(state),
-                             obs.sigma_crowd_blob_frame_px if cfg.sigma_target_px is None else None)
+                             obs.sigma_crowd_blob_frame_px if cfg.sigma_target_px is None else None, own_pose)
     fresh = fit.fit is not None and fit.quality != FitQuality.HELD
     xy = obs.blobs.xy_px
     new_state = replace(

@@ -42,7 +42,8 @@ def test_step_gives_the_recorded_result(k, monkeypatch):
     prior_of = localizer.prior_of
     monkeypatch.setattr(localizer, "prior_of", lambda *a: (p := prior_of(*a)) and dataclasses.replace(
         p, fit_landmark_sigma_m=None))
-    cfg = LocalizerConfig(**cfg)    # new fields: their defaults
+    # new fields: their defaults, but no crowd fused with the pose (it came later: test_localizer.py tests it)
+    cfg = LocalizerConfig(**cfg, fuse_pose=False)
     got_state, got = localize_step(_upgraded(state), _upgraded(obs), tracks, cfg)
     assert got.quality == want.quality and got.landmarks_used == want.landmarks_used
     assert got.outlier_landmarks == want.outlier_landmarks and got.blob_of_ugv == want.blob_of_ugv

@@ -153,13 +153,15 @@ def test_every_step_is_the_step_it_was(seed, monkeypatch):
     # small (one under min_vehicle_blob_m2 claiming the rest of the vehicle came later: test_perception.py),
     # and under a landmark fit at that reach whatever the fix's error (its 95 % radius added came later:
     # test_localizer.py tests it); and the last transform as a prior known as well everywhere as at its own
-    # landmarks (known as well as they make it there came later: test_localizer.py tests it)
+    # landmarks (known as well as they make it there came later: test_localizer.py tests it); and no crowd
+    # fused with the camera's pose (that came later too: test_localizer.py tests it)
     prior_of = now.prior_of
     monkeypatch.setattr(now, "prior_of", lambda *a: (p := prior_of(*a)) and replace(p, fit_landmark_sigma_m=None))
     claim = now.claim_blobs
     monkeypatch.setattr(now, "claim_blobs", lambda to_px, obs, positions, pairing, cfg, pose_sigma_m=None:
                         claim(to_px, obs, {u: replace(p, sigma_m=0.0) for u, p in positions.items()}, pairing, cfg))
-    cfg_now = now.LocalizerConfig(**kw, learn_landmark_noise=False, moving_m_s=float("inf"), min_vehicle_blob_m2=0.0)
+    cfg_now = now.LocalizerConfig(**kw, learn_landmark_noise=False, moving_m_s=float("inf"), min_vehicle_blob_m2=0.0,
+                                  fuse_pose=False)
     cfg_before = before.LocalizerConfig(**kw)
     s_now, s_before = now.LocalizerState(), before.LocalizerState()
     for k, obs in enumerate(frames):
