@@ -109,7 +109,9 @@ def test_gnss_tilt_noise_height_and_pose_variants_differ_from_their_base_only_th
                                 ("real-alt120-lm6-winding", "real-alt120-lm6", ("crowds",)),
                                 ("real-alt60-lm6-two", "real-alt60-lm6", ("crowds",)),
                                 ("real-alt60-lm0-pose", "real-alt60-lm6", ("uav", "ugvs")),
-                                ("real-alt120-lm0-pose", "real-alt120-lm6", ("uav", "ugvs"))):
+                                ("real-alt120-lm0-pose", "real-alt120-lm6", ("uav", "ugvs")),
+                                ("real-alt60-lm6-gnss1-pose", "real-alt60-lm6-gnss1", ("uav",)),
+                                ("real-alt120-lm6-gnss1-pose", "real-alt120-lm6-gnss1", ("uav",))):
         v, b = load_own_scenario(name), load_own_scenario(base)
         same = replace(v, name=b.name, path=b.path, paper_mean_error_m=b.paper_mean_error_m,
                        **{c: getattr(b, c) for c in changed})
@@ -122,6 +124,8 @@ def test_gnss_tilt_noise_height_and_pose_variants_differ_from_their_base_only_th
             (declared.attitude_sigma_deg, declared.heading_sigma_deg, declared.alt_sigma_m)
         assert v.uav.position_sigma_m == 1.0 and declared.position_sigma_m == 0.0   # 0: the autopilot's h_acc
         assert replace(v.uav, position_sigma_m=0.0, heading_sigma_deg=0.0, alt_sigma_m=0.0, attitude_sigma_deg=0.0) == b.uav
+        # with the labels and 1 m GNSS on the UGVs, the same pose errors
+        assert load_own_scenario(f"real-alt{alt}-lm6-gnss1-pose").uav == v.uav
     assert load_own_scenario("real-alt60-lm6").gnss.sigma_m == 0.0
     assert load_own_scenario("real-alt60-lm6-gnss1").gnss.sigma_m == 1.0
     for alt in (60, 120):   # the same 1 m as the -gnss1 worlds, nearly all of it a bias that drifts slowly
