@@ -197,7 +197,10 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    canopy, ground of their own shade) no longer takes its crowd with it, since the walkers themselves do not
    drift. Its radius is as without: the filter takes out the blob's drift, not the steady offset the radius
    holds (a radius narrowed by a share of that part held the truth in 0.68 of frames on paper-fig9-color-lm4,
-   whose crowds' error is that offset; docs/results-worlds.md, session 51).
+   whose crowds' error is that offset; docs/results-worlds.md, session 51). A filter averages estimates off
+   by one steady error: placed by the camera's pose, a crowd is off by the pose's bias, placed by a landmark
+   fit by the landmarks', so a crowd placed by the one and then the other starts its filter afresh (with the
+   pose's errors, real-alt60-lm6-gnss1-pose, the first fits' crowds were held towards the pose's bias).
 """
 
 from __future__ import annotations
@@ -209,6 +212,7 @@ import numpy as np
 
 from .localizer import R95_PER_SIGMA, CrowdEstimate
 from .tracking import CrowdTrack, CrowdTracker
+from .vocab import FitQuality
 
 __all__ = ["GroupingConfig", "GroupingState", "Held", "LastSeen", "ReportedCrowd", "Smoothed", "crowd_groups",
            "report_crowds", "steady_sigma_m", "straight_walk"]
@@ -997,6 +1001,7 @@ class Smoothed:
     P: np.ndarray                      # (4, 4), or (6, 6)
     area_px: float                     # the moving pixels of the estimate it last took
     skipped: int = 0                   # estimates off its gate skipped in a row, up to this frame
+    by_pose: bool = False              # the estimates it took were placed by the camera's pose (POSE)
 
 
 SMOOTH_GAP_S = 0.5          # a crowd unseen (or unreported) this long starts its filter afresh
@@ -1021,7 +1026,13 @@ def _smoothed(prev: Mapping[int, Smoothed], crowds: list[ReportedCrowd], fast_of
         sigma_m = max(fast, cfg.smooth_min_sigma_m)
         if r.partly_seen:
             sigma_m = max(sigma_m, c.radius95_m / R95_PER_SIGMA)
-        f = _filter_step(prev.get(r.crowd_id), r, sigma_m, stamp_s, cfg)
+        by_pose = c.quality == FitQuality.POSE
+        f = prev.get(r.crowd_id)
+        if f is not None and f.by_pose != by_pose:   # the steady error its estimates share changed: afresh
+            f = None
+        f = _filter_step(f, r, sigma_m, stamp_s, cfg)
+        if f.by_pose != by_pose:
+            f = replace(f, by_pose=by_pose)
         kept[r.crowd_id] = f
         left95 = R95_PER_SIGMA * float(np.sqrt((f.P[0, 0] + f.P[1, 1]) / 2.0))
         noise95 = min(R95_PER_SIGMA * sigma_m, c.frame_radius95_m, c.radius95_m)
