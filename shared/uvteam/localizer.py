@@ -31,7 +31,9 @@ business (:mod:`uvteam.nodes.localizer`). Per frame, :func:`localize_step` runs 
    there: a UGV is never a crowd, whether its label was seen there, elsewhere (a label-coloured patch
    taken for it) or not at all. Every remaining blob is mapped to the ground
    (centre and box footprint) with a 95 % radius from the propagated pixel and GNSS noise, and the
-   quality flag. No estimate leaves without its flag.
+   quality flag; until the pose's bias is learnt against the fits, a fresh fit's placement is fused with
+   the pose's by their covariances (:func:`fuse_with_pose`: four noisy fixes are a weak transform, and the
+   pose's errors then owe nothing to them). No estimate leaves without its flag.
 
 The pixel noise the radius propagates is what the detector declares with its detections
 (:class:`FrameObservation` ``sigma_*``), unless the config overrides it. The landmarks' part (pixel
@@ -674,8 +676,9 @@ def fuse_with_pose(en_fit: np.ndarray, covs: list[np.ndarray], n_target: int, en
     same pixel), so it is kept as the fit had it; the pose's part, a bias for the run, is no noise from frame
     to frame (not in the second covariance when ``n_target`` is 2).
 
-    Four landmarks with 1 m GNSS noise at 120 m make a transform known to 4-5 m at the crowd, the pose to 2 m
-    (real-alt120-lm6-gnss1 seed 160 at 1.0 s: the fit 3.6 m off, the pose 0.4 m); six exact fixes make it
+    Four landmarks with 1 m GNSS noise at 120 m can make a transform known to 4-5 m at the crowd, the pose to
+    2 m (real-alt120-lm6-gnss1 seed 160 at 1.0 s: the fit 3.6 m off, the pose, exact in that world, 0.4 m;
+    tests/unit/test_montecarlo.py draws the pose off by the sigmas it declares); six exact fixes make it
     known to centimetres, and the pose moves it by as much less. Once the pose's bias is learnt against the
     fits it owes its placement to them: then it is no independent second opinion and nothing is fused."""
     C = covs[n_target]
