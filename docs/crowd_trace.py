@@ -1,7 +1,8 @@
 """Per frame, between two times: the localizer's estimates (its own local frame; area in moving pixels,
 95 % radius) and the crowds the team reports against the truth (the scoring's frame: east/north m, error,
-radius, seconds unseen, velocity). A diagnostic for docs/results-worlds.md (session 23); not part of the
-product. Use it on tuning seeds or to trace a figure already reported.
+radius, seconds unseen, velocity), and where the camera's pose alone puts each estimate's blob (session 55). A
+diagnostic for docs/results-worlds.md (session 23); not part of the product. Use it on tuning seeds or to trace
+a figure already reported.
 
     .venv/bin/python docs/crowd_trace.py scenarios/real-alt120-lm6.toml 9 1.8 5.8
 """
@@ -22,7 +23,14 @@ def main(path: str, seed: int, t0_s: float, t1_s: float) -> None:
 
     def looked_at(state, obs, tracks, cfg):
         new_state, res = step(state, obs, tracks, cfg)
-        estimates[round(obs.stamp_s - T0, 2)] = [(c.east_m, c.north_m, c.area_px, c.radius95_m) for c in res.crowds]
+        rows = []
+        for c in res.crowds:     # and where the camera's pose alone (no bias learnt) puts the same blob
+            at, sigma = (np.nan, np.nan), np.nan
+            if obs.pose is not None:
+                at = obs.pose.px_to_ground(obs.blobs.xy_px[c.blob_index][None])[0]
+                sigma = float(obs.pose.sigma_m(at[None])[0])
+            rows.append((c.east_m, c.north_m, c.area_px, c.radius95_m, c.quality.value, *at, sigma))
+        estimates[round(obs.stamp_s - T0, 2)] = rows
         return new_state, res
 
     node_module.localize_step = looked_at
@@ -39,8 +47,9 @@ def main(path: str, seed: int, t0_s: float, t1_s: float) -> None:
                 err = float(np.hypot(*(tru - en).T).min()) if len(tru) else float("nan")
                 print(f"   reported {x.crowd_id}: {np.round(en, 2).tolist()} error {err:.2f} m, r95 {x.radius95_m:.2f} m, "
                       f"unseen {x.unseen_s:.1f} s, v ({x.v_east_m_s:.2f}, {x.v_north_m_s:.2f}) m/s")
-            for e, n, area, r95 in estimates.get(t, []):
-                print(f"   estimate ({e:.2f}, {n:.2f}) m, {area:.0f} px, r95 {r95:.2f} m")
+            for e, n, area, r95, q, pe, pn, ps in estimates.get(t, []):
+                print(f"   estimate ({e:.2f}, {n:.2f}) m, {area:.0f} px, r95 {r95:.2f} m, {q}; "
+                      f"the pose alone ({pe:.2f}, {pn:.2f}) m, 1-sigma {ps:.2f} m")
         scored(truth, crowds)
 
     team.scorer._add = add
