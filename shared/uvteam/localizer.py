@@ -682,6 +682,7 @@ def fuse_with_pose(en_fit: np.ndarray, covs: list[np.ndarray], n_target: int, en
     known to centimetres, and the pose moves it by as much less. Once the pose's bias is learnt against the
     fits it owes its placement to them: then it is no independent second opinion and nothing is fused."""
     C = covs[n_target]
+    sigma_pose_m = np.maximum(sigma_pose_m, 1e-3)     # a pose reported exact is known to a millimetre
     S = sigma_pose_m[:, None, None] ** 2 * np.eye(2)
     y = en_pose - en_fit
     CS = C + S

@@ -17,7 +17,7 @@ from uvteam.config import UavConfig
 from uvteam.detector_noise import PIXEL_SIGMA_M, pixel_pipeline_noise
 from uvteam.geo import LocalFrame
 from uvteam.localizer import (POSE_BIAS_MIN_FRAMES, R95_PER_SIGMA, FrameObservation, LocalizerConfig, LocalizerState,
-                              UgvTrack, localize_step)
+                              UgvTrack, fuse_with_pose, localize_step)
 from uvteam.messages import CameraPoseReport
 from uvteam.pose import pose_prior
 from uvteam.vocab import FitQuality
@@ -219,3 +219,10 @@ def test_a_pose_learnt_against_the_fits_or_far_off_them_moves_no_crowd():
     assert a.quality == b.quality == FitQuality.LEAST_SQUARES and (a.east_m, a.north_m) == (b.east_m, b.north_m)
     at_pose = far.px_to_ground(obs.blobs.xy_px)[0]
     assert b.radius95_m >= np.hypot(b.east_m - at_pose[0], b.north_m - at_pose[1]) > a.radius95_m
+
+
+def test_a_pose_and_a_fit_both_reported_exact_fuse_without_a_singular_matrix():
+    en = np.array([[1.0, 2.0]])
+    zero = np.zeros((1, 2, 2))
+    fused, covs, floor = fuse_with_pose(en, [zero, zero], 1, en + 0.5, np.zeros(1))
+    assert np.isfinite(fused).all() and all(np.isfinite(c).all() for c in covs) and floor[0] > 0
