@@ -799,6 +799,13 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: Mapping[
         own_pose = None    # the pose, while its bias is not learnt against the fits: independent of them
         if cfg.fuse_pose and obs.pose is not None and state.pose_bias_n < POSE_BIAS_MIN_FRAMES:
             own_pose = Prior("pose", pose=obs.pose, bias_en_m=np.zeros(2))
+            # a UGV that is no landmark of a fit on a few fixes may be mapped metres off its blob by it (far
+            # from its landmarks): it also claims where the pose puts it, as before the first fit
+            # (real-alt120-lm6-gnss1-pose seed 187 at 1.5-2.0 s: two such UGVs' blobs reported as crowds)
+            others = {u: p for u, p in positions.items() if u not in fit.used}
+            if fit.quality in _FUSED_WITH_POSE and others:
+                is_ugv |= claim_blobs(lambda en: obs.pose.ground_to_px(np.asarray(en)), obs, others, pairing, cfg,
+                                      own_pose.sigma_m)
         crowds = map_targets(fit, obs.blobs, np.flatnonzero(~is_ugv), s_lm, s_tg, cfg, obs.px_per_m,
                              landmark_noise_scale(state),
                              obs.sigma_crowd_blob_frame_px if cfg.sigma_target_px is None else None, own_pose)
