@@ -27,7 +27,8 @@ business (:mod:`uvteam.nodes.localizer`). Per frame, :func:`localize_step` runs 
    against the landmark transforms while there were some, with a radius from the attitude and height).
 5. :func:`claim_blobs` and :func:`map_targets` -- every UGV whose position is known claims the blob
    whose box holds, or whose centre is near, where the transform puts it (under the pose: as far as
-   the pose and the fix are worth), unless its own blob, or with a landmark fit its label, was found
+   the pose and the fix are worth; while the pose is fused, below, a UGV that is no landmark of the fit
+   also where the pose puts it), unless its own blob, or with a landmark fit its label, was found
    there: a UGV is never a crowd, whether its label was seen there, elsewhere (a label-coloured patch
    taken for it) or not at all. Every remaining blob is mapped to the ground
    (centre and box footprint) with a 95 % radius from the propagated pixel and GNSS noise, and the
