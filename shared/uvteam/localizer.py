@@ -271,6 +271,11 @@ class Prior:
             return self.fit.px_to_ground(xy_px)
         return self.pose.px_to_ground(xy_px) + self.bias_en_m
 
+    def ground_to_px(self, en_m) -> np.ndarray:
+        if self.fit is not None:
+            return self.fit.ground_to_px(en_m)
+        return self.pose.ground_to_px(np.asarray(en_m) - self.bias_en_m)
+
     def sigma_m(self, en_m) -> np.ndarray:
         """(N,) 1-sigma per axis of the prior at these ground points."""
         en = np.asarray(en_m, float).reshape(-1, 2)
@@ -793,8 +798,7 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: Mapping[
         if fit.fit is not None:
             to_px, pose_sigma = fit.fit.ground_to_px, None
         else:   # the pose's error and each UGV's fix's, independent of each other, widen the claim
-            to_px = lambda en: obs.pose.ground_to_px(np.asarray(en) - prior.bias_en_m)  # noqa: E731
-            pose_sigma = prior.sigma_m
+            to_px, pose_sigma = prior.ground_to_px, prior.sigma_m
         is_ugv = pairing.is_ugv | claim_blobs(to_px, obs, positions, pairing, cfg, pose_sigma)
         is_ugv[list(pairing.blob_of_ugv.values())] = True
         own_pose = None    # the pose, while its bias is not learnt against the fits: independent of them
@@ -803,10 +807,10 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: Mapping[
             # a UGV that is no landmark of a fit on a few fixes may be mapped metres off its blob by it (far
             # from its landmarks): it also claims where the pose puts it, as before the first fit
             # (real-alt120-lm6-gnss1-pose seed 187 at 1.5-2.0 s: two such UGVs' blobs reported as crowds)
-            others = {u: p for u, p in positions.items() if u not in fit.used}
-            if fit.quality in _FUSED_WITH_POSE and others:
-                is_ugv |= claim_blobs(lambda en: obs.pose.ground_to_px(np.asarray(en)), obs, others, pairing, cfg,
-                                      own_pose.sigma_m)
+            others = {u: p for u, p in positions.items() if u not in fit.used} \
+                if fit.quality in _FUSED_WITH_POSE else {}
+            if others:
+                is_ugv |= claim_blobs(own_pose.ground_to_px, obs, others, pairing, cfg, own_pose.sigma_m)
         crowds = map_targets(fit, obs.blobs, np.flatnonzero(~is_ugv), s_lm, s_tg, cfg, obs.px_per_m,
                              landmark_noise_scale(state),
                              obs.sigma_crowd_blob_frame_px if cfg.sigma_target_px is None else None, own_pose)

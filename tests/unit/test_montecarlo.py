@@ -66,6 +66,18 @@ def test_uncertainty_coverage(alt_m, ring_m, n_landmarks):
 
 # --- the camera's pose alone (POSE) ----------------------------------------------------------------------
 
+def _reported_pose(rng, frame, alt_m, declared=UavConfig()):
+    """A camera over (0, 0) and its pose report with the errors the pose worlds play (run_pose_trials):
+    (true pose, prior)."""
+    roll, pitch = rng.normal(0, 1.0, 2) + rng.normal(0, 0.2, 2)
+    true_pose = CameraPose(0.0, 0.0, alt_m, yaw_deg=0.0, roll_deg=roll, pitch_deg=pitch)
+    lat, lon = frame.ground_to_wgs84(*(rng.normal(0, 1.0, 2) + rng.normal(0, 0.2, 2)))
+    report = CameraPoseReport(float(lat), float(lon), alt_m + rng.normal(0, 1.0), 0.0, 0.0,
+                              float(rng.normal(0, 3.0)) % 360.0, 1.0, declared.attitude_sigma_deg,
+                              declared.heading_sigma_deg, declared.alt_sigma_m)
+    return true_pose, pose_prior(report, frame, CAM.width_px, CAM.height_px, CAM.focal_px)
+
+
 def run_pose_trials(alt_m, trials, seed, declared=UavConfig()):
     """No landmark: the crowd is placed by the reported pose. Each trial draws the pose's errors as
     ``uvteam_sim`` plays them for the pose worlds (scenarios/real-alt*-lm0-pose.toml): GNSS 1 m per axis
@@ -80,14 +92,7 @@ def run_pose_trials(alt_m, trials, seed, declared=UavConfig()):
     errs, inside = [], []
     for _ in range(trials):
         crowd = rng.uniform(-8, 8, 2)
-        roll, pitch = rng.normal(0, 1.0, 2) + rng.normal(0, 0.2, 2)
-        true_pose = CameraPose(0.0, 0.0, alt_m, yaw_deg=0.0, roll_deg=roll, pitch_deg=pitch)
-        told_en = rng.normal(0, 1.0, 2) + rng.normal(0, 0.2, 2)
-        lat, lon = frame.ground_to_wgs84(*told_en)
-        report = CameraPoseReport(float(lat), float(lon), alt_m + rng.normal(0, 1.0), 0.0, 0.0,
-                                  float(rng.normal(0, 3.0)) % 360.0, 1.0, declared.attitude_sigma_deg,
-                                  declared.heading_sigma_deg, declared.alt_sigma_m)
-        prior = pose_prior(report, frame, CAM.width_px, CAM.height_px, CAM.focal_px)
+        true_pose, prior = _reported_pose(rng, frame, alt_m, declared)
         c_px = project(CAM, true_pose, crowd[None]) + rng.normal(0, PIXEL_SIGMA_M["crowd_blob"] * px_per_m, (1, 2))
         noise = pixel_pipeline_noise(alt_m, CAM.focal_px)
         obs = FrameObservation(1.0, Landmarks((), np.empty((0, 2))),
@@ -116,17 +121,6 @@ def test_pose_radius_coverage_with_the_shipped_sigmas(alt_m):
 
 
 # --- a landmark fit fused with the pose --------------------------------------------------------------------
-
-def _reported_pose(rng, frame, alt_m, declared=UavConfig()):
-    """A camera over (0, 0) and its pose report with the errors run_pose_trials draws: (true pose, prior)."""
-    roll, pitch = rng.normal(0, 1.0, 2) + rng.normal(0, 0.2, 2)
-    true_pose = CameraPose(0.0, 0.0, alt_m, yaw_deg=0.0, roll_deg=roll, pitch_deg=pitch)
-    lat, lon = frame.ground_to_wgs84(*(rng.normal(0, 1.0, 2) + rng.normal(0, 0.2, 2)))
-    report = CameraPoseReport(float(lat), float(lon), alt_m + rng.normal(0, 1.0), 0.0, 0.0,
-                              float(rng.normal(0, 3.0)) % 360.0, 1.0, declared.attitude_sigma_deg,
-                              declared.heading_sigma_deg, declared.alt_sigma_m)
-    return true_pose, pose_prior(report, frame, CAM.width_px, CAM.height_px, CAM.focal_px)
-
 
 def _fused_scene(rng, frame, alt_m, n_landmarks, arc_rad):
     """UGVs spread over ``arc_rad`` of a ring 0.8-1.2 x 20 m round a crowd within 8 m of the nadir point, their
