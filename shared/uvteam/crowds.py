@@ -54,7 +54,10 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    the later half of the frames fitted is not ``late_share`` of the whole fit's, the same way (a distance
    that stepped and then held: the two parts of a winding crowd's blob, 8.3 m apart, 7.0 m 0.8 s later,
    then 6.9-7.4 m, fitted -1.2 to -0.5 m/s over the window for ten frames in a row, were latched and
-   reported as two crowds in 21 frames, real-alt60-lm6-winding seed 9 at 30.1-36.7 s). Parts latched for
+   reported as two crowds in 21 frames, real-alt60-lm6-winding seed 9 at 30.1-36.7 s); nor does a drift the
+   parts' walkers do not make: where the detector measured both parts' walkers' velocity (``v_en_m_s``,
+   motion step 8), a frame counts only if those part or close in along the line between the parts at
+   ``walk_share`` of ``max_rel_speed_m_s``, the same way (:func:`_walkers_drift`). Parts latched for
    their drift alone (not for being ``apart_m`` apart) are one crowd again once, within ``near_m``, the
    slope of their distance over the last ``rejoin_s`` (both seen over most of it) is under half
    ``max_rel_speed_m_s``, significant or not:
@@ -231,6 +234,9 @@ class GroupingConfig:
     apart_m: float = 18.0         # parts once this far apart are two crowds while both are tracked,
     apart_frames: int = 10        # ... and so are parts whose distance changed significantly this many frames in a row,
     late_share: float = 0.5       # ... each time still changing over the later half of the fit at this share of its pace
+    walk_share: float = 0.5       # ... and, where both parts' walkers' velocities are measured, those parting
+                                  # or closing in along the line between them at this share of max_rel_speed_m_s
+                                  # (0: not asked)
     rejoin_s: float = 6.0         # ... until, near, their distance holds over this long (0: never; <= the tracks' trail)
     scatter_s: float = 8.0        # a crowd's radius counts the scatter of its estimates over this long
     scatter_min_points: int = 5   # ... once there are this many
@@ -288,6 +294,8 @@ class GroupingConfig:
                              ">= 0, smooth_sigma_v_m_s > 0")
         if not 0.0 <= self.late_share <= 1.0:
             raise ValueError(f"late_share must be in [0, 1], got {self.late_share}")
+        if not self.walk_share >= 0.0:
+            raise ValueError(f"walk_share must be >= 0, got {self.walk_share}")
         if not (self.apart_m >= self.near_m and self.apart_frames >= 1 and self.rejoin_s >= 0.0):
             raise ValueError(f"apart_m must be >= near_m, apart_frames >= 1 and rejoin_s >= 0, got {self.apart_m}, "
                              f"{self.apart_frames}, {self.rejoin_s}")
@@ -337,14 +345,15 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
                  boxes_en: np.ndarray | None = None, areas: np.ndarray | None = None,
                  apart: frozenset[Pair] = frozenset(), streak: Mapping[Pair, int] | None = None,
                  drifted: frozenset[Pair] = frozenset(), joined: frozenset[Pair] = frozenset(),
-                 crowds: list[int | None] | None = None
+                 crowds: list[int | None] | None = None, v_en: np.ndarray | None = None
                  ) -> tuple[list[int], frozenset[Pair], dict[Pair, int], frozenset[Pair]]:
     """A group label per track (this frame's estimates): tracks with one label are one crowd.
     ``boxes_en`` (n, 4): each estimate's footprint as east/north min/max; ``areas`` (n,): its moving pixels;
     ``apart``, ``streak``, ``drifted``, ``joined``: what earlier frames learnt (:class:`GroupingState`);
     ``crowds`` (n,): the id of the crowd each was a part of, or None (parts of two crowds are not each
-    other's stragglers, nor one crowd before their drift is measured). Returns the labels and the pairs
-    known apart, the streaks and the pairs apart for their drift after this frame."""
+    other's stragglers, nor one crowd before their drift is measured); ``v_en`` (n, 2): each estimate's
+    walkers' velocity (NaN where not measured). Returns the labels and the pairs known apart, the streaks
+    and the pairs apart for their drift after this frame."""
     n = len(tracks)
     parent = list(range(n))
     apart = set(apart)
@@ -393,7 +402,8 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
         fit = _distance_slope(trails[i], trails[j], stamp_s, cfg)
         rel = _significant_speed(fit, cfg.significance)
         if rel > cfg.max_rel_speed_m_s:
-            if _goes_on(trails[i], trails[j], stamp_s, fit[0], cfg):   # a step that stopped counts toward no streak
+            # a step that stopped counts toward no streak, nor a drift the parts' walkers do not make
+            if _goes_on(trails[i], trails[j], stamp_s, fit[0], cfg) and _walkers_drift(v_en, en, i, j, fit[0], cfg):
                 new_streak[pair] = streak.get(pair, 0) + 1
             if new_streak.get(pair, 0) >= cfg.apart_frames:
                 apart.add(pair)
@@ -405,6 +415,25 @@ def crowd_groups(tracks: list[CrowdTrack], stamp_s: float, cfg: GroupingConfig =
             parent[root(j)] = root(i)       # not significant, or NaN (not seen apart long enough): one crowd;
                                             # but parts of two crowds only once seen not to drift
     return [root(i) for i in range(n)], frozenset(apart), new_streak, frozenset(drifted & apart)
+
+
+def _walkers_drift(v_en: np.ndarray | None, en: np.ndarray, i: int, j: int, slope_m_s: float,
+                   cfg: GroupingConfig) -> bool:
+    """Whether parts i and j, whose distance changes at ``slope_m_s``, have walkers that move so: their
+    velocities (``v_en``) parting or closing in along the line between them, the same way, at
+    ``walk_share`` of ``max_rel_speed_m_s``. True where either velocity is not measured. The parts of
+    one crowd drift as walkers cross between them or go out of sight and back; their walkers move
+    alike (real-alt120-lm6-winding seed 175 at 35.4-36.3 s: two parts of one crowd 5.2 -> 7.1 m apart,
+    0.4-0.6 m/s over 3 s, latched as two crowds 3.3-3.6 m off, while their walkers' velocities agreed
+    within 0.3 m/s)."""
+    if v_en is None or cfg.walk_share <= 0.0 or not (np.isfinite(v_en[i]).all() and np.isfinite(v_en[j]).all()):
+        return True
+    d = en[j] - en[i]
+    norm = float(np.hypot(*d))
+    if norm <= 0.0:
+        return True
+    parting = float(np.dot(v_en[j] - v_en[i], d)) / norm
+    return parting * np.sign(slope_m_s) >= cfg.walk_share * cfg.max_rel_speed_m_s
 
 
 def _trail_since(track: CrowdTrack, since_s: float) -> dict:
@@ -861,9 +890,11 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     boxes_en = boxes_all[parts].reshape(-1, 4)
     areas = np.array([estimates[k].area_px for k in parts], float)
     crowds = [came_out[k][1] if k in came_out else young.get(k, state.crowd_of.get(trk[k].track_id)) for k in parts]
+    v_en = np.array([estimates[k].v_en_m_s if estimates[k].v_en_m_s is not None else (np.nan, np.nan)
+                     for k in parts], float).reshape(-1, 2)
     labels, apart, streak, drifted = crowd_groups([trk[k] for k in parts], stamp_s, cfg, boxes_en, areas,
                                                   frozenset(apart), state.streak, frozenset(drifted), state.joined,
-                                                  crowds)
+                                                  crowds, v_en)
     # the parts a new crowd showed in from its first frames, in the group of the nearest confirmed part
     of_part = dict(zip(parts, labels))
     for k, j in _starting_parts(state, en, trk, confirmed, frozenset(young), cfg).items():

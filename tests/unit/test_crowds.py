@@ -15,20 +15,21 @@ T0 = 1_700_000_000.0
 STEPS = GroupingConfig(smooth_accel_m_s2=0.0)   # steps 1-9 on the estimates as grouped; step 10 is tested on its own
 
 
-def estimate(e, n, area=1.0, r95=1.0, half=1.0):
-    """A crowd estimate at (e, n) with a square footprint of half-side ``half`` m."""
+def estimate(e, n, area=1.0, r95=1.0, half=1.0, v=None):
+    """A crowd estimate at (e, n) with a square footprint of half-side ``half`` m (its walkers' velocity ``v``)."""
     fp = np.array([[e - half, n + half], [e + half, n + half], [e + half, n - half], [e - half, n - half]])
-    return CrowdEstimate(0, float(e), float(n), fp, r95, FitQuality.LEAST_SQUARES, 0, area)
+    return CrowdEstimate(0, float(e), float(n), fp, r95, FitQuality.LEAST_SQUARES, 0, area, v_en_m_s=v)
 
 
 def run(parts_at, seconds=6.0, rate_hz=10.0, seed=0, jitter_m=0.3, cfg=STEPS):
-    """Feed report_crowds each frame's parts: parts_at(t) -> [(east, north, area[, footprint half-side])],
-    with centre jitter."""
+    """Feed report_crowds each frame's parts: parts_at(t) -> [(east, north, area[, footprint half-side[,
+    walkers' velocity]])], with centre jitter."""
     rng = np.random.default_rng(seed)
     state, out, counts = GroupingState(), [], []
     for f in range(int(seconds * rate_hz)):
         t = f / rate_hz
-        ests = tuple(estimate(e + rng.normal(0, jitter_m), n + rng.normal(0, jitter_m), a, half=h[0] if h else 1.0)
+        ests = tuple(estimate(e + rng.normal(0, jitter_m), n + rng.normal(0, jitter_m), a, half=h[0] if h else 1.0,
+                              v=h[1] if len(h) > 1 else None)
                      for e, n, a, *h in parts_at(t))
         state, out = report_crowds(state, ests, T0 + t, cfg)
         counts.append(len(out))
@@ -235,6 +236,29 @@ def test_parts_seen_drifting_apart_for_several_frames_stay_two_when_the_drift_st
     run(lambda t: [(1.4 * t, 0.0, 20.0), (1.4 * t + sep(t), 0.0, 10.0)], seconds=12.0, jitter_m=0.2,
         cfg=GroupingConfig(apart_frames=1000))
     assert run.counts[-1] == 1 and run.state.apart == frozenset()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_drift_the_parts_walkers_do_not_make_latches_nothing(seed):
+    # a crowd's blob cut in two whose distance grows from 6.5 m at 0.6 m/s for 6 s (as real-alt120-lm6-winding
+    # seed 175's parts at 35.4-36.3 s, 0.4-0.6 m/s: walkers crossing between the parts), each part's walkers
+    # measured walking alike with the crowd (1.4 m/s east, 0.1 m/s of noise): one crowd throughout. The same
+    # parts with their walkers measured parting at 0.6 m/s are two crowds, and so are the first ones when the
+    # walkers are not asked (walk_share 0)
+    rng = np.random.default_rng(seed)
+
+    def parts(t, parting_m_s):
+        if t < 2.0:
+            return [(1.4 * t, 4.0, 40.0, 5.0)]
+        walk = lambda dv: (1.4 + rng.normal(0, 0.1), dv + rng.normal(0, 0.1))          # noqa: E731
+        return [(1.4 * t, 0.0, 20.0, 2.0, walk(0.0)), (1.4 * t, 6.5 + 0.6 * (t - 2.0), 20.0, 2.0, walk(parting_m_s))]
+
+    run(lambda t: parts(t, 0.0), 8.0, seed=seed, jitter_m=0.2)
+    assert 2 not in run.counts and run.state.apart == frozenset()
+    run(lambda t: parts(t, 0.6), 8.0, seed=seed, jitter_m=0.2)
+    assert run.counts[-10:] == [2] * 10 and len(run.state.apart) == 1
+    run(lambda t: parts(t, 0.0), 8.0, seed=seed, jitter_m=0.2, cfg=replace(STEPS, walk_share=0.0))
+    assert run.counts[-10:] == [2] * 10 and len(run.state.apart) == 1
 
 
 def _cut_then(sep_after_cut):
