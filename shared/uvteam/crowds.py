@@ -423,9 +423,9 @@ def _walkers_drift(v_en: np.ndarray | None, en: np.ndarray, i: int, j: int, slop
     velocities (``v_en``) parting or closing in along the line between them, the same way, at
     ``walk_share`` of ``max_rel_speed_m_s``. True where either velocity is not measured. The parts of
     one crowd drift as walkers cross between them or go out of sight and back; their walkers move
-    alike (real-alt120-lm6-winding seed 175 at 35.4-36.3 s: two parts of one crowd 5.2 -> 7.1 m apart,
-    0.4-0.6 m/s over 3 s, latched as two crowds 3.3-3.6 m off, while their walkers' velocities agreed
-    within 0.3 m/s)."""
+    alike (real-alt120-lm6-winding seed 175 at 35.4-36.3 s: two parts of one crowd 6.2 -> 7.1 m apart,
+    fitted 0.40-0.62 m/s over 3 s, latched as two crowds 3.3-3.6 m off, while their walkers' velocities
+    agreed within 0.3 m/s)."""
     if v_en is None or cfg.walk_share <= 0.0 or not (np.isfinite(v_en[i]).all() and np.isfinite(v_en[j]).all()):
         return True
     d = en[j] - en[i]
