@@ -171,7 +171,10 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    Kalman filter per crowd id): its estimates' noise from frame to frame is what its track's scatter within
    ``scatter_fast_s`` measures (until there is such a measure, its track too young for it or for a velocity,
    the crowd is reported as estimated: paper-fig7-alt50 seed 4's maximum, 1.29 -> 1.37 m at 0.4 s with a
-   filter started on a three-frame track), its pace and heading change by
+   filter started on a three-frame track; but a crowd with a filter whose blob went to such a track, as a cut
+   part's track takes the whole blob, goes on on its filter at the noise its track last measured:
+   real-alt60-lm6-gnss1 seed 182 at 28.5 s, reported as estimated, 3.67 m off, its filter then afresh there),
+   its pace and heading change by
    ``smooth_accel_m_s2`` per axis (1 sigma), and an estimate more than ``smooth_gate`` standard deviations
    from where the filter has it, one whose moving pixels changed by more than ``smooth_area_ratio`` (walkers
    joined or left its blob), or one after a frame gap, starts it afresh (a crowd held by its walk, step 6,
@@ -1033,6 +1036,7 @@ class Smoothed:
     area_px: float                     # the moving pixels of the estimate it last took
     skipped: int = 0                   # estimates off its gate skipped in a row, up to this frame
     by_pose: bool = False              # the estimates it took were placed by the camera's pose (POSE)
+    noise_m: float = 0.0               # the frame noise (1 sigma per axis) its crowd's track last measured
 
 
 SMOOTH_GAP_S = 0.5          # a crowd unseen (or unreported) this long starts its filter afresh
@@ -1044,26 +1048,27 @@ def _smoothed(prev: Mapping[int, Smoothed], crowds: list[ReportedCrowd], fast_of
     """Step 10: each crowd seen placed where its filter has it, its radius holding what the filter leaves of the
     declared frame noise in place of that noise; the filters, per crowd id. ``fast_of``: per track seen this
     frame, :func:`fast_scatter_m` of its trail (step 1's); a crowd whose track has none yet is reported as
-    estimated."""
+    estimated, unless it has a filter (within ``SMOOTH_GAP_S``), which goes on at the noise it last took."""
     if not cfg.smooth_accel_m_s2 > 0.0:
         return crowds, {}
     out, kept = [], {}
     for r in crowds:
         fast = fast_of.get(r.track.track_id)
-        if r.unseen_s > 0.0 or fast is None:    # held by its walk (step 6): a prediction already; or its track
-            out.append(r)                       # too young to have measured its noise, nor its velocity
+        f = prev.get(r.crowd_id)
+        if fast is None and f is not None and 0.0 < stamp_s - f.stamp_s <= SMOOTH_GAP_S:
+            fast = f.noise_m                    # a crowd seen on a new track (its blob cut or joined): the noise
+        if r.unseen_s > 0.0 or fast is None:    # its track measured; held by its walk (step 6): a prediction
+            out.append(r)                       # already; or its track too young to have measured its noise
             continue
         c = r.estimate
         sigma_m = max(fast, cfg.smooth_min_sigma_m)
         if r.partly_seen:
             sigma_m = max(sigma_m, c.radius95_m / R95_PER_SIGMA)
         by_pose = c.quality == FitQuality.POSE
-        f = prev.get(r.crowd_id)
         if f is not None and f.by_pose != by_pose:   # the steady error its estimates share changed: afresh
             f = None
         f = _filter_step(f, r, sigma_m, stamp_s, cfg)
-        if f.by_pose != by_pose:
-            f = replace(f, by_pose=by_pose)
+        f = replace(f, by_pose=by_pose, noise_m=fast)
         kept[r.crowd_id] = f
         left95 = R95_PER_SIGMA * float(np.sqrt((f.P[0, 0] + f.P[1, 1]) / 2.0))
         noise95 = min(R95_PER_SIGMA * sigma_m, c.frame_radius95_m, c.radius95_m)
