@@ -198,21 +198,15 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    deviation over the square root of the corners' count, measured 3-4 times too small: on the tuning recordings the
    error's median grows from 0.12 to 0.66 m/s from the least to the most declared spread), off by a bias the
    filter learns from the blob's places (``smooth_bias_m_s``: 2-8 % slow as shipped, which at paper-fig7-alt50's
-   3.1 m/s left the crowd 0.1-0.2 m behind), the blob's place also off its crowd by an offset that lasts
-   (``smooth_blob_sigma_m`` at rest, going back to none over ``smooth_blob_tau_s``: a state of the filter), and
+   3.1 m/s left the crowd 0.1-0.2 m behind), the blob's place also ``smooth_blob_sigma_m`` off its crowd, and
    walkers that join or leave the blob start nothing afresh: a blob that drifts as walkers go out of sight (a
    canopy, ground of their own shade) no longer takes its crowd with it, since the walkers themselves do not
-   drift. That offset was white noise from frame to frame (0.3 m) until session 57: real-alt60-lm6 seed 175 at
-   25.6-28.8 s, walkers going out of sight under a roof, the blob's place drifted east of them at 0.75 m/s for
-   3 s while their velocity was measured right, and the filter took the drift for its crowd's pace (3.3 m off);
-   replayed on tuning seeds 174-180, 3 s and 0.5 m took the 60 m worlds' means down by 0.04-0.08 m and their
-   maxima by 0.4-0.8 m (docs/results-worlds.md, session 57). Its radius is as without: the filter takes out the
-   blob's drift, not the steady offset the radius holds (a radius narrowed by a share of that part held the
-   truth in 0.68 of frames on paper-fig9-color-lm4, whose crowds' error is that offset; docs/results-worlds.md,
-   session 51); what it leaves of the frame noise is what it leaves of the blob's place's. A filter averages
-   estimates off by one steady error: placed by the camera's pose, a crowd is off by the pose's bias, placed by a
-   landmark fit by the landmarks', so a crowd placed by the one and then the other starts its filter afresh (with
-   the pose's errors, real-alt60-lm6-gnss1-pose, the first fits' crowds were held towards the pose's bias).
+   drift. Its radius is as without: the filter takes out the blob's drift, not the steady offset the radius
+   holds (a radius narrowed by a share of that part held the truth in 0.68 of frames on paper-fig9-color-lm4,
+   whose crowds' error is that offset; docs/results-worlds.md, session 51). A filter averages estimates off
+   by one steady error: placed by the camera's pose, a crowd is off by the pose's bias, placed by a landmark
+   fit by the landmarks', so a crowd placed by the one and then the other starts its filter afresh (with the
+   pose's errors, real-alt60-lm6-gnss1-pose, the first fits' crowds were held towards the pose's bias).
 """
 
 from __future__ import annotations
@@ -268,9 +262,8 @@ class GroupingConfig:
     smooth_min_sigma_m: float = 0.05  # ... and its estimates' noise from frame to frame is taken as at least this
     smooth_area_ratio: float = 1.3  # ... and so does one whose moving pixels changed by more than this factor
     smooth_skip_frames: int = 1   # ... but an estimate off the gate is first skipped this many frames in a row
-    smooth_blob_sigma_m: float = 0.5  # > 0: a crowd whose walkers' velocity the detector measured is filtered with
+    smooth_blob_sigma_m: float = 0.3  # > 0: a crowd whose walkers' velocity the detector measured is filtered with
                                   # it, its blob's place taken as also this far off (1 sigma per axis) (step 10)
-    smooth_blob_tau_s: float = 3.0  # ... an offset that lasts this long (its time constant; 0: white, frame to frame)
     smooth_sigma_v_m_s: float = 0.15  # ... that velocity known to this per axis (1 sigma),
     smooth_spread_k: float = 6.0  # ... and to this many times the spread the detector declares for it
     smooth_bias_m_s: float = 0.1  # ... and to be off by a bias the filter learns, at first this (1 sigma per axis;
@@ -299,9 +292,9 @@ class GroupingConfig:
             raise ValueError("smooth_accel_m_s2 must be >= 0, smooth_gate and smooth_min_sigma_m > 0, "
                              "smooth_area_ratio >= 1, smooth_skip_frames >= 0")
         if not (self.smooth_blob_sigma_m >= 0.0 and self.smooth_sigma_v_m_s > 0.0 and self.smooth_spread_k >= 0.0
-                and self.smooth_bias_m_s >= 0.0 and self.smooth_bias_walk_m_s >= 0.0 and self.smooth_blob_tau_s >= 0.0):
-            raise ValueError("smooth_blob_sigma_m, smooth_blob_tau_s, smooth_spread_k, smooth_bias_m_s and "
-                             "smooth_bias_walk_m_s must be >= 0, smooth_sigma_v_m_s > 0")
+                and self.smooth_bias_m_s >= 0.0 and self.smooth_bias_walk_m_s >= 0.0):
+            raise ValueError("smooth_blob_sigma_m, smooth_spread_k, smooth_bias_m_s and smooth_bias_walk_m_s must be "
+                             ">= 0, smooth_sigma_v_m_s > 0")
         if not 0.0 <= self.late_share <= 1.0:
             raise ValueError(f"late_share must be in [0, 1], got {self.late_share}")
         if not self.walk_share >= 0.0:
@@ -1077,8 +1070,7 @@ def _smoothed(prev: Mapping[int, Smoothed], crowds: list[ReportedCrowd], fast_of
         f = _filter_step(f, r, sigma_m, stamp_s, cfg)
         f = replace(f, by_pose=by_pose, noise_m=fast)
         kept[r.crowd_id] = f
-        Hp = _place_rows(len(f.x), cfg)         # what the filter leaves of the blob's place's frame noise
-        left95 = R95_PER_SIGMA * float(np.sqrt(np.trace(Hp @ f.P @ Hp.T) / 2.0))
+        left95 = R95_PER_SIGMA * float(np.sqrt((f.P[0, 0] + f.P[1, 1]) / 2.0))
         noise95 = min(R95_PER_SIGMA * sigma_m, c.frame_radius95_m, c.radius95_m)
         r95 = float(np.sqrt(max(c.radius95_m ** 2 - noise95 ** 2 + left95 ** 2, left95 ** 2)))
         shift = f.x[:2] - (c.east_m, c.north_m)
@@ -1120,47 +1112,17 @@ def _filter_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_
                     area)
 
 
-def _layout(cfg: GroupingConfig) -> tuple[int, int | None, int | None]:
-    """Step 10's filter with the walkers' velocity (:func:`_carried_step`): its number of states and where the
-    measured velocity's bias (``smooth_bias_m_s`` > 0) and the blob's lasting offset from its crowd
-    (``smooth_blob_tau_s`` > 0) start in it (None: not in it), after east, north and their rates."""
-    n, bias, off = 4, None, None
-    if cfg.smooth_bias_m_s > 0.0:
-        bias, n = n, n + 2
-    if cfg.smooth_blob_tau_s > 0.0 and cfg.smooth_blob_sigma_m > 0.0:
-        off, n = n, n + 2
-    return n, bias, off
-
-
-def _place_rows(n: int, cfg: GroupingConfig) -> np.ndarray:
-    """(2, ``n``): what of a filter's ``n`` states makes its crowd's blob's place: the crowd's, and with the
-    walkers' velocity and ``smooth_blob_tau_s`` the blob's lasting offset from it."""
-    H = np.zeros((2, n))
-    H[0, 0] = H[1, 1] = 1.0
-    nb, _, off = _layout(cfg)
-    if n == nb and off is not None:
-        H[0, off] = H[1, off + 1] = 1.0
-    return H
-
-
 def _transition(dt: float, n: int, cfg: GroupingConfig) -> tuple[np.ndarray, np.ndarray]:
     """Step 10's filters over ``dt`` s: the state's transition and process noise, ``n`` states (east, north, their
-    rates; more: :func:`_layout`'s): white acceleration of ``smooth_accel_m_s2`` per axis, the bias walking
-    ``smooth_bias_walk_m_s`` per square root of a second, the blob's offset from its crowd going back to none
-    over ``smooth_blob_tau_s`` (first-order, ``smooth_blob_sigma_m`` at rest)."""
+    rates, and with 6 the measured velocity's bias, :func:`_carried_step`): white acceleration of
+    ``smooth_accel_m_s2`` per axis, the bias walking ``smooth_bias_walk_m_s`` per square root of a second."""
     F = np.eye(n)
     F[0, 2] = F[1, 3] = dt
     G = np.array([[dt * dt / 2.0, 0.0], [0.0, dt * dt / 2.0], [dt, 0.0], [0.0, dt]])
     Q = np.zeros((n, n))
     Q[:4, :4] = cfg.smooth_accel_m_s2 ** 2 * (G @ G.T)
-    if n > 4:
-        _, bias, off = _layout(cfg)
-        if bias is not None:
-            Q[bias, bias] = Q[bias + 1, bias + 1] = cfg.smooth_bias_walk_m_s ** 2 * dt
-        if off is not None:
-            a = float(np.exp(-dt / cfg.smooth_blob_tau_s))
-            F[off, off] = F[off + 1, off + 1] = a
-            Q[off, off] = Q[off + 1, off + 1] = cfg.smooth_blob_sigma_m ** 2 * (1.0 - a * a)
+    if n == 6:
+        Q[4, 4] = Q[5, 5] = cfg.smooth_bias_walk_m_s ** 2 * dt
     return F, Q
 
 
@@ -1170,42 +1132,35 @@ def _carried_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp
     (``CrowdEstimate.v_en_m_s``: white noise of ``smooth_sigma_v_m_s`` and ``smooth_spread_k`` times its declared
     spread per axis, plus a bias the filter learns, ``smooth_bias_m_s``; a measurement off the gate is left out)
     and weighs the blob's place as also off by its offset from the crowd (walkers out of sight or back,
-    ``smooth_blob_sigma_m``; white from frame to frame, or with ``smooth_blob_tau_s`` an offset that lasts, a state
-    of the filter), no frame noise: a blob that drifts as walkers go out of sight does not take the crowd with it,
-    and walkers that join or leave the blob start nothing afresh. The states: :func:`_layout` (the bias kept aside
-    in frames whose velocity was not measured, :func:`_filter_step`, and the offset dropped). A gap, a first
-    estimate, or one off the gate (after ``smooth_skip_frames``) start it afresh."""
+    ``smooth_blob_sigma_m``), no frame noise: a blob that drifts as walkers go out of sight does not take the
+    crowd with it, and walkers that join or leave the blob start nothing afresh. The state: east, north, their
+    rates, and the bias (east, north) while ``smooth_bias_m_s`` > 0 (kept aside in frames whose velocity was not
+    measured, :func:`_filter_step`). A gap, a first estimate, or one off the gate (after ``smooth_skip_frames``)
+    start it afresh."""
     c = r.estimate
     z = np.array([c.east_m, c.north_m])
     zv = np.asarray(c.v_en_m_s, float)
-    nb, bias, off = _layout(cfg)
-    sb2 = cfg.smooth_blob_sigma_m ** 2
-    rp = sigma_m ** 2 + (sb2 if off is None else 0.0)
+    rp = sigma_m ** 2 + cfg.smooth_blob_sigma_m ** 2
     rv = cfg.smooth_sigma_v_m_s ** 2 + (cfg.smooth_spread_k * c.sigma_v_m_s) ** 2
     area = c.area_px
-    prior = np.zeros(nb)                         # the variances of the states past the first four, as at a start
-    if bias is not None:
-        prior[bias:bias + 2] = cfg.smooth_bias_m_s ** 2
-    if off is not None:
-        prior[off:off + 2] = sb2
+    nb = 6 if cfg.smooth_bias_m_s > 0 else 4
     if prev is not None and len(prev.x) != nb:
-        x6, P6 = np.zeros(nb), np.diag(prior)
+        x6, P6 = np.zeros(nb), np.diag([0.0] * 4 + [cfg.smooth_bias_m_s ** 2] * (nb - 4))
         m = min(nb, len(prev.x))
         x6[:m], P6[:m, :m] = prev.x[:m], prev.P[:m, :m]
         prev = replace(prev, x=x6, P=P6)
-    Hp = _place_rows(nb, cfg)
     if prev is not None and 0.0 < stamp_s - prev.stamp_s <= SMOOTH_GAP_S:
         F, Q = _transition(stamp_s - prev.stamp_s, nb, cfg)
         x, P = F @ prev.x, F @ prev.P @ F.T + Q
-        y = z - Hp @ x
+        y = z - x[:2]
         Hv = np.zeros((2, nb))
         Hv[0, 2] = Hv[1, 3] = 1.0
-        if bias is not None:
-            Hv[0, bias] = Hv[1, bias + 1] = 1.0
-        gate_r = rp + (sb2 if off is not None else 0.0)     # the blob's offset may have moved anywhere in its spread
-        if float(y @ np.linalg.solve(Hp @ P @ Hp.T + gate_r * np.eye(2), y)) <= cfg.smooth_gate ** 2:
+        if nb == 6:
+            Hv[0, 4] = Hv[1, 5] = 1.0
+        if float(y @ np.linalg.solve(P[:2, :2] + rp * np.eye(2), y)) <= cfg.smooth_gate ** 2:
             yv = zv - Hv @ x
             take_v = float(yv @ np.linalg.solve(Hv @ P @ Hv.T + rv * np.eye(2), yv)) <= cfg.smooth_gate ** 2
+            Hp = np.eye(nb)[:2]
             Hm = np.vstack([Hp, Hv]) if take_v else Hp
             R = np.diag([rp, rp, rv, rv]) if take_v else rp * np.eye(2)
             yy = np.concatenate([y, yv]) if take_v else y
@@ -1215,11 +1170,7 @@ def _carried_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp
         if prev.skipped < cfg.smooth_skip_frames:
             return Smoothed(stamp_s, x, P, prev.area_px, prev.skipped + 1)
     x0 = np.concatenate([z, zv, np.zeros(nb - 4)])
-    P0 = np.diag([sigma_m ** 2, sigma_m ** 2, rv, rv] + list(prior[4:]))
-    if off is not None:                          # the crowd is where the blob is less the offset it may have
-        for k in (0, 1):
-            P0[k, k] += sb2
-            P0[k, off + k] = P0[off + k, k] = -sb2
+    P0 = np.diag([sigma_m ** 2, sigma_m ** 2, rv, rv] + [cfg.smooth_bias_m_s ** 2] * (nb - 4))
     return Smoothed(stamp_s, x0, P0, area)
 
 
