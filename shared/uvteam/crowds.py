@@ -1056,9 +1056,9 @@ def _smoothed(prev: Mapping[int, Smoothed], crowds: list[ReportedCrowd], fast_of
         fast = fast_of.get(r.track.track_id)
         f = prev.get(r.crowd_id)
         if fast is None and f is not None and 0.0 < stamp_s - f.stamp_s <= SMOOTH_GAP_S:
-            fast = f.noise_m                    # a crowd seen on a new track (its blob cut or joined): the noise
-        if r.unseen_s > 0.0 or fast is None:    # its track measured; held by its walk (step 6): a prediction
-            out.append(r)                       # already; or its track too young to have measured its noise
+            fast = f.noise_m        # its blob went to a young track (a cut part's): the noise its own track measured
+        if r.unseen_s > 0.0 or fast is None:    # held by its walk (step 6): a prediction already; or its track
+            out.append(r)                       # too young to have measured its noise, nor its velocity
             continue
         c = r.estimate
         sigma_m = max(fast, cfg.smooth_min_sigma_m)

@@ -1255,12 +1255,11 @@ def test_a_crowd_first_seen_is_reported_as_estimated_until_its_track_has_measure
     assert later and any(np.hypot(e.east_m - s[0], e.north_m - s[1]) > 0.01 for s, e in later)
 
 
-
 @pytest.mark.parametrize("seed", [0, 1, 3, 4, 5])
 def test_a_crowd_whose_blob_went_to_a_young_track_stays_on_its_filter(seed):
     # real-alt60-lm6-gnss1 seed 182 at 28.4-28.6 s: a crowd's blob cut in two for a frame (one crowd: its track
-    # kept the west part, a new track took the east one) and whole again, its centre 1.6 m east of the crowd
-    # (here: north), nearer the young track, which took it. That track has measured no noise yet: the crowd was
+    # kept the west part, a new track took the east one) and whole again, its centre off the crowd's (2.9 m there,
+    # 1.6 m here), nearer the young track, which took it. That track has measured no noise yet: the crowd was
     # reported as estimated, 3.67 m off, then its filter started afresh there. Its filter goes on, at the noise
     # its crowd's track last measured, so the first frames after are reported near where it walks
     rng = np.random.default_rng(seed)
@@ -1280,6 +1279,7 @@ def test_a_crowd_whose_blob_went_to_a_young_track_stays_on_its_filter(seed):
              if r.track.track_id != rows[0][0].track.track_id and len(r.track.trail) < 4]
     assert young and all(err < 1.0 and (r.estimate.east_m, r.estimate.north_m) != (e.east_m, e.north_m)
                          for r, e, err in young)
+
 
 def drifting_blob(cfg, v_spread=0.02, with_velocity=True, seed=0):
     """A crowd walking at (1.2, 0.4) m/s whose blob drifts north of it as walkers go out of sight: 0 -> 1.5 m off
