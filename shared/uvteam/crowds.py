@@ -196,17 +196,25 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    ``CrowdEstimate.v_en_m_s``) is filtered with it (:func:`_carried_step`): the velocity known to
    ``smooth_sigma_v_m_s`` and ``smooth_spread_k`` times the spread the detector declares (its median absolute
    deviation over the square root of the corners' count, measured 3-4 times too small: on the tuning recordings the
-   error's median grows from 0.12 to 0.66 m/s from the least to the most declared spread), off by a bias the
-   filter learns from the blob's places (``smooth_bias_m_s``: 2-8 % slow as shipped, which at paper-fig7-alt50's
-   3.1 m/s left the crowd 0.1-0.2 m behind), the blob's place also ``smooth_blob_sigma_m`` off its crowd, and
-   walkers that join or leave the blob start nothing afresh: a blob that drifts as walkers go out of sight (a
-   canopy, ground of their own shade) no longer takes its crowd with it, since the walkers themselves do not
-   drift. Its radius is as without: the filter takes out the blob's drift, not the steady offset the radius
-   holds (a radius narrowed by a share of that part held the truth in 0.68 of frames on paper-fig9-color-lm4,
-   whose crowds' error is that offset; docs/results-worlds.md, session 51). A filter averages estimates off
-   by one steady error: placed by the camera's pose, a crowd is off by the pose's bias, placed by a landmark
-   fit by the landmarks', so a crowd placed by the one and then the other starts its filter afresh (with the
-   pose's errors, real-alt60-lm6-gnss1-pose, the first fits' crowds were held towards the pose's bias).
+   error's median grows from 0.12 to 0.66 m/s from the least to the most declared spread), off by a bias the filter
+   learns from the blob's places (``smooth_bias_m_s``: 2-8 % slow as shipped, which at paper-fig7-alt50's 3.1 m/s
+   left the crowd 0.1-0.2 m behind), the blob's place also ``smooth_blob_sigma_m`` off its crowd, white from frame to
+   frame, and, while the blob loses moving pixels, off by an offset that lasts (a state of the filter, spreading by
+   ``smooth_lost_offset`` half-diagonals of the crowd's footprint per unit of log moving pixels lost, going back to
+   none over ``smooth_blob_tau_s``), and walkers that join or leave the blob start nothing afresh: a blob that drifts
+   as walkers go out of sight (a canopy, ground of their own shade) no longer takes its crowd with it, since the
+   walkers themselves do not drift. The lasting offset is session 58's: real-alt60-lm6 seed 175 at 25.6-28.8 s,
+   walkers going out of sight under a roof (the blob's moving pixels 4,800 -> 3,200), the blob's place drifted east
+   of them at 0.75 m/s for 3 s while their velocity was measured right, and the filter took the drift for its crowd's
+   pace (3.3 m off; 2.6 m with it). An offset that lasts whatever the blob's pixels do (session 57) took the walkers'
+   velocity measured slow at 3.1 m/s for an offset too (paper-fig7-alt50 0.481 -> 0.576 m); one that spreads only
+   while pixels are lost leaves a steady gap to the bias (docs/results-worlds.md, session 58). Its radius is as
+   without: the filter takes out the blob's drift, not the steady offset the radius holds (a radius narrowed by a
+   share of that part held the truth in 0.68 of frames on paper-fig9-color-lm4, whose crowds' error is that offset;
+   docs/results-worlds.md, session 51). A filter averages estimates off by one steady error: placed by the camera's
+   pose, a crowd is off by the pose's bias, placed by a landmark fit by the landmarks', so a crowd placed by the one
+   and then the other starts its filter afresh (with the pose's errors, real-alt60-lm6-gnss1-pose, the first fits'
+   crowds were held towards the pose's bias).
 """
 
 from __future__ import annotations
@@ -264,6 +272,12 @@ class GroupingConfig:
     smooth_skip_frames: int = 1   # ... but an estimate off the gate is first skipped this many frames in a row
     smooth_blob_sigma_m: float = 0.3  # > 0: a crowd whose walkers' velocity the detector measured is filtered with
                                   # it, its blob's place taken as also this far off (1 sigma per axis) (step 10)
+    smooth_lost_offset: float = 0.25  # ... and, while its walkers go out of sight, off by an offset that lasts, its
+                                  # spread (1 sigma per axis) this many half-diagonals of its footprint per unit of
+                                  # log moving pixels lost (0: none),
+    smooth_area_fast_s: float = 0.5   # ... "lost": the log of its moving pixels averaged over this long below
+    smooth_area_slow_s: float = 4.0   # ... their average over this long,
+    smooth_blob_tau_s: float = 3.0    # ... the offset going back to none over this long (its time constant)
     smooth_sigma_v_m_s: float = 0.15  # ... that velocity known to this per axis (1 sigma),
     smooth_spread_k: float = 6.0  # ... and to this many times the spread the detector declares for it
     smooth_bias_m_s: float = 0.1  # ... and to be off by a bias the filter learns, at first this (1 sigma per axis;
@@ -292,9 +306,12 @@ class GroupingConfig:
             raise ValueError("smooth_accel_m_s2 must be >= 0, smooth_gate and smooth_min_sigma_m > 0, "
                              "smooth_area_ratio >= 1, smooth_skip_frames >= 0")
         if not (self.smooth_blob_sigma_m >= 0.0 and self.smooth_sigma_v_m_s > 0.0 and self.smooth_spread_k >= 0.0
-                and self.smooth_bias_m_s >= 0.0 and self.smooth_bias_walk_m_s >= 0.0):
-            raise ValueError("smooth_blob_sigma_m, smooth_spread_k, smooth_bias_m_s and smooth_bias_walk_m_s must be "
-                             ">= 0, smooth_sigma_v_m_s > 0")
+                and self.smooth_bias_m_s >= 0.0 and self.smooth_bias_walk_m_s >= 0.0
+                and self.smooth_lost_offset >= 0.0):
+            raise ValueError("smooth_blob_sigma_m, smooth_lost_offset, smooth_spread_k, smooth_bias_m_s and "
+                             "smooth_bias_walk_m_s must be >= 0, smooth_sigma_v_m_s > 0")
+        if not (self.smooth_area_fast_s > 0.0 and self.smooth_area_slow_s > 0.0 and self.smooth_blob_tau_s > 0.0):
+            raise ValueError("smooth_area_fast_s, smooth_area_slow_s and smooth_blob_tau_s must be > 0")
         if not 0.0 <= self.late_share <= 1.0:
             raise ValueError(f"late_share must be in [0, 1], got {self.late_share}")
         if not self.walk_share >= 0.0:
@@ -1037,6 +1054,8 @@ class Smoothed:
     skipped: int = 0                   # estimates off its gate skipped in a row, up to this frame
     by_pose: bool = False              # the estimates it took were placed by the camera's pose (POSE)
     noise_m: float = 0.0               # the frame noise (1 sigma per axis) its crowd's track last measured
+    log_area_fast: float = 0.0         # the log of its estimates' moving pixels averaged over smooth_area_fast_s
+    log_area_slow: float = 0.0         # ... and over smooth_area_slow_s (first-order, from the filter's start)
 
 
 SMOOTH_GAP_S = 0.5          # a crowd unseen (or unreported) this long starts its filter afresh
@@ -1067,8 +1086,9 @@ def _smoothed(prev: Mapping[int, Smoothed], crowds: list[ReportedCrowd], fast_of
         by_pose = c.quality == FitQuality.POSE
         if f is not None and f.by_pose != by_pose:   # the steady error its estimates share changed: afresh
             f = None
-        f = _filter_step(f, r, sigma_m, stamp_s, cfg)
-        f = replace(f, by_pose=by_pose, noise_m=fast)
+        quick, slow = _area_means(f, c.area_px, stamp_s, cfg)
+        f = _filter_step(f, r, sigma_m, stamp_s, cfg, max(slow - quick, 0.0))
+        f = replace(f, by_pose=by_pose, noise_m=fast, log_area_fast=quick, log_area_slow=slow)
         kept[r.crowd_id] = f
         left95 = R95_PER_SIGMA * float(np.sqrt((f.P[0, 0] + f.P[1, 1]) / 2.0))
         noise95 = min(R95_PER_SIGMA * sigma_m, c.frame_radius95_m, c.radius95_m)
@@ -1079,8 +1099,19 @@ def _smoothed(prev: Mapping[int, Smoothed], crowds: list[ReportedCrowd], fast_of
     return out, kept
 
 
-def _filter_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_s: float, cfg: GroupingConfig
-                 ) -> Smoothed:
+def _area_means(prev: Smoothed | None, area_px: float, stamp_s: float, cfg: GroupingConfig) -> tuple[float, float]:
+    """The log of a crowd's moving pixels averaged over ``smooth_area_fast_s`` and ``smooth_area_slow_s`` (first-order)
+    up to this frame's ``area_px``, from its filter ``prev``; afresh (both this frame's) without one or after a gap."""
+    now = float(np.log(max(area_px, 1.0)))
+    if prev is None or not 0.0 < stamp_s - prev.stamp_s <= SMOOTH_GAP_S:
+        return now, now
+    dt = stamp_s - prev.stamp_s
+    return (prev.log_area_fast + (1.0 - np.exp(-dt / cfg.smooth_area_fast_s)) * (now - prev.log_area_fast),
+            prev.log_area_slow + (1.0 - np.exp(-dt / cfg.smooth_area_slow_s)) * (now - prev.log_area_slow))
+
+
+def _filter_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_s: float, cfg: GroupingConfig,
+                 lost: float = 0.0) -> Smoothed:
     """One Kalman step of a crowd's constant-velocity filter (white acceleration of ``smooth_accel_m_s2`` per
     axis) with its estimate at ``sigma_m`` per axis; afresh at the estimate, with its track's velocity, when
     there is none, after a gap, when the estimate's moving pixels changed by more than ``smooth_area_ratio``
@@ -1089,7 +1120,7 @@ def _filter_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_
     for more than ``smooth_skip_frames`` frames in a row (before that, the estimate is skipped: predicted, not
     updated). With ``smooth_blob_sigma_m``, a crowd whose walkers' velocity was measured: :func:`_carried_step`."""
     if cfg.smooth_blob_sigma_m > 0.0 and r.estimate.v_en_m_s is not None:
-        return _carried_step(prev, r, sigma_m, stamp_s, cfg)
+        return _carried_step(prev, r, sigma_m, stamp_s, cfg, lost)
     if prev is not None and len(prev.x) > 4:   # the walkers' velocity not measured this frame: its bias kept aside
         prev = replace(prev, x=prev.x[:4], P=prev.P[:4, :4])
     z = np.array([r.estimate.east_m, r.estimate.north_m])
@@ -1112,55 +1143,91 @@ def _filter_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_
                     area)
 
 
-def _transition(dt: float, n: int, cfg: GroupingConfig) -> tuple[np.ndarray, np.ndarray]:
+def _layout(cfg: GroupingConfig) -> tuple[int, int | None, int | None]:
+    """Step 10's filter with the walkers' velocity (:func:`_carried_step`): its number of states and where the
+    measured velocity's bias (``smooth_bias_m_s`` > 0) and the blob's lasting offset from its crowd
+    (``smooth_lost_offset`` > 0) start in it (None: not in it), after east, north and their rates."""
+    n, bias, off = 4, None, None
+    if cfg.smooth_bias_m_s > 0.0:
+        bias, n = n, n + 2
+    if cfg.smooth_lost_offset > 0.0:
+        off, n = n, n + 2
+    return n, bias, off
+
+
+def _place_rows(n: int, cfg: GroupingConfig) -> np.ndarray:
+    """(2, ``n``): what of a filter's ``n`` states makes its crowd's blob's place: the crowd's, and with the
+    walkers' velocity and ``smooth_lost_offset`` the blob's lasting offset from it."""
+    H = np.zeros((2, n))
+    H[0, 0] = H[1, 1] = 1.0
+    nb, _, off = _layout(cfg)
+    if n == nb and off is not None:
+        H[0, off] = H[1, off + 1] = 1.0
+    return H
+
+
+def _transition(dt: float, n: int, cfg: GroupingConfig, offset_sigma_m: float = 0.0
+                ) -> tuple[np.ndarray, np.ndarray]:
     """Step 10's filters over ``dt`` s: the state's transition and process noise, ``n`` states (east, north, their
-    rates, and with 6 the measured velocity's bias, :func:`_carried_step`): white acceleration of
-    ``smooth_accel_m_s2`` per axis, the bias walking ``smooth_bias_walk_m_s`` per square root of a second."""
+    rates; more: :func:`_layout`'s): white acceleration of ``smooth_accel_m_s2`` per axis, the bias walking
+    ``smooth_bias_walk_m_s`` per square root of a second, the blob's offset from its crowd going back to none
+    over ``smooth_blob_tau_s`` (first-order, spreading towards ``offset_sigma_m`` per axis)."""
     F = np.eye(n)
     F[0, 2] = F[1, 3] = dt
     G = np.array([[dt * dt / 2.0, 0.0], [0.0, dt * dt / 2.0], [dt, 0.0], [0.0, dt]])
     Q = np.zeros((n, n))
     Q[:4, :4] = cfg.smooth_accel_m_s2 ** 2 * (G @ G.T)
-    if n == 6:
-        Q[4, 4] = Q[5, 5] = cfg.smooth_bias_walk_m_s ** 2 * dt
+    if n > 4:
+        _, bias, off = _layout(cfg)
+        if bias is not None:
+            Q[bias, bias] = Q[bias + 1, bias + 1] = cfg.smooth_bias_walk_m_s ** 2 * dt
+        if off is not None:
+            a = float(np.exp(-dt / cfg.smooth_blob_tau_s))
+            F[off, off] = F[off + 1, off + 1] = a
+            Q[off, off] = Q[off + 1, off + 1] = offset_sigma_m ** 2 * (1.0 - a * a)
     return F, Q
 
 
-def _carried_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_s: float, cfg: GroupingConfig
-                  ) -> Smoothed:
+def _carried_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp_s: float, cfg: GroupingConfig,
+                  lost: float = 0.0) -> Smoothed:
     """One Kalman step of a crowd's constant-velocity filter that also takes its walkers' velocity as measured
     (``CrowdEstimate.v_en_m_s``: white noise of ``smooth_sigma_v_m_s`` and ``smooth_spread_k`` times its declared
     spread per axis, plus a bias the filter learns, ``smooth_bias_m_s``; a measurement off the gate is left out)
     and weighs the blob's place as also off by its offset from the crowd (walkers out of sight or back,
-    ``smooth_blob_sigma_m``), no frame noise: a blob that drifts as walkers go out of sight does not take the
-    crowd with it, and walkers that join or leave the blob start nothing afresh. The state: east, north, their
-    rates, and the bias (east, north) while ``smooth_bias_m_s`` > 0 (kept aside in frames whose velocity was not
-    measured, :func:`_filter_step`). A gap, a first estimate, or one off the gate (after ``smooth_skip_frames``)
-    start it afresh."""
+    ``smooth_blob_sigma_m``; white from frame to frame, or with ``smooth_blob_tau_s`` an offset that lasts, a state
+    of the filter), no frame noise: a blob that drifts as walkers go out of sight does not take the crowd with it,
+    and walkers that join or leave the blob start nothing afresh. The states: :func:`_layout` (the bias kept aside
+    in frames whose velocity was not measured, :func:`_filter_step`, and the offset dropped). A gap, a first
+    estimate, or one off the gate (after ``smooth_skip_frames``) start it afresh."""
     c = r.estimate
     z = np.array([c.east_m, c.north_m])
     zv = np.asarray(c.v_en_m_s, float)
-    rp = sigma_m ** 2 + cfg.smooth_blob_sigma_m ** 2
+    nb, bias, off = _layout(cfg)
+    sb2 = cfg.smooth_blob_sigma_m ** 2
+    rp = sigma_m ** 2 + sb2
     rv = cfg.smooth_sigma_v_m_s ** 2 + (cfg.smooth_spread_k * c.sigma_v_m_s) ** 2
     area = c.area_px
-    nb = 6 if cfg.smooth_bias_m_s > 0 else 4
+    prior = np.zeros(nb)                         # the variances of the states past the first four, as at a start
+    if bias is not None:
+        prior[bias:bias + 2] = cfg.smooth_bias_m_s ** 2
     if prev is not None and len(prev.x) != nb:
-        x6, P6 = np.zeros(nb), np.diag([0.0] * 4 + [cfg.smooth_bias_m_s ** 2] * (nb - 4))
+        x6, P6 = np.zeros(nb), np.diag(prior)
         m = min(nb, len(prev.x))
         x6[:m], P6[:m, :m] = prev.x[:m], prev.P[:m, :m]
         prev = replace(prev, x=x6, P=P6)
+    Hp = _place_rows(nb, cfg)
     if prev is not None and 0.0 < stamp_s - prev.stamp_s <= SMOOTH_GAP_S:
-        F, Q = _transition(stamp_s - prev.stamp_s, nb, cfg)
+        half_m = 0.5 * float(np.hypot(*np.ptp(np.asarray(c.footprint_en_m, float), axis=0)))
+        F, Q = _transition(stamp_s - prev.stamp_s, nb, cfg, cfg.smooth_lost_offset * lost * half_m)
         x, P = F @ prev.x, F @ prev.P @ F.T + Q
-        y = z - x[:2]
+        y = z - Hp @ x
         Hv = np.zeros((2, nb))
         Hv[0, 2] = Hv[1, 3] = 1.0
-        if nb == 6:
-            Hv[0, 4] = Hv[1, 5] = 1.0
-        if float(y @ np.linalg.solve(P[:2, :2] + rp * np.eye(2), y)) <= cfg.smooth_gate ** 2:
+        if bias is not None:
+            Hv[0, bias] = Hv[1, bias + 1] = 1.0
+        if float(y @ np.linalg.solve(Hp @ P @ Hp.T + rp * np.eye(2), y)) <= cfg.smooth_gate ** 2:
             yv = zv - Hv @ x
             take_v = float(yv @ np.linalg.solve(Hv @ P @ Hv.T + rv * np.eye(2), yv)) <= cfg.smooth_gate ** 2
-            Hp = np.eye(nb)[:2]
             Hm = np.vstack([Hp, Hv]) if take_v else Hp
             R = np.diag([rp, rp, rv, rv]) if take_v else rp * np.eye(2)
             yy = np.concatenate([y, yv]) if take_v else y
@@ -1170,7 +1237,7 @@ def _carried_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp
         if prev.skipped < cfg.smooth_skip_frames:
             return Smoothed(stamp_s, x, P, prev.area_px, prev.skipped + 1)
     x0 = np.concatenate([z, zv, np.zeros(nb - 4)])
-    P0 = np.diag([sigma_m ** 2, sigma_m ** 2, rv, rv] + [cfg.smooth_bias_m_s ** 2] * (nb - 4))
+    P0 = np.diag([sigma_m ** 2, sigma_m ** 2, rv, rv] + list(prior[4:]))
     return Smoothed(stamp_s, x0, P0, area)
 
 
