@@ -106,9 +106,9 @@ def _radii(parts_at, seconds):
 def test_a_crowd_seen_in_parts_apart_may_be_two(whole_until_s):
     # two parts 8 m apart walking together (one crowd, step 2; moving pixels 30 and 15) for 3 s, then one blob
     # with the pixels of both at their joint centre, then the big part's pixels alone. With their footprints
-    # apart (the small one's +-1 m), they may be two crowds: the radius also holds the small part's centre,
-    # 8 * 30/45 m from the crowd's, while seen apart and while the blob has the pixels of both, up to coast_s
-    # (5 s) after last seen apart (the frame at exactly 5 s left out). With footprints that overlap (+-7.5 m),
+    # apart (the small one's +-1 m), they may be two crowds: the radius also holds the nearer part's centre (the
+    # big one's, 8 * 15/45 m from the crowd's), while seen apart and while the blob has the pixels of both, up to
+    # coast_s (5 s) after last seen apart (the frame at exactly 5 s left out). With footprints that overlap (+-7.5 m),
     # and once the blob has only the big part's pixels, the radius is what it was
     def parts(half):
         def at(t):
@@ -128,7 +128,7 @@ def test_a_crowd_seen_in_parts_apart_may_be_two(whole_until_s):
         if t < whole_until_s and abs(t - 2.9 - 5.0) < 0.05:
             continue
         if t < whole_until_s and t < 2.9 + 5.0:
-            assert r95 == pytest.approx(math.hypot(r95_0, 8.0 * 30.0 / 45.0), rel=1e-12)
+            assert r95 == pytest.approx(math.hypot(r95_0, 8.0 * 15.0 / 45.0), rel=1e-12)
             widened += 1
         else:
             assert r95 == r95_0
