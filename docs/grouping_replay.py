@@ -7,7 +7,8 @@ minute. A diagnostic for docs/results-worlds.md (session 27); not part of the pr
     time:   .venv/bin/python docs/grouping_replay.py time OUT_DIR   (CPU time of report_crowds per frame)
 
 ``record`` runs each seed as ``uvteam experiment --detector pixels`` does (:class:`SimTeam`, the same
-scores) and keeps, per frame, the estimates the localizer groups, the truth and the Crowds message's
+scores) and keeps, per frame, the estimates the localizer groups (and the placement's shift in a frame in
+which a landmark fit takes over from the camera's pose, session 58), the truth and the Crowds message's
 header (``OUT_DIR/<scenario>__seed<N>.pkl``). ``replay`` feeds every recording in ``OUT_DIR`` through
 ``report_crowds`` with the code on the path (and the config's fields set as given), builds the Crowds
 messages as the localizer node does, scores them with :class:`uvteam.scoring.BusScorer`, and prints
@@ -41,9 +42,11 @@ def record(out_dir: str, path: str, seeds: list[int]) -> None:
     for seed in seeds:
         team, events = SimTeam(sc, seed, "pixels"), []
 
-        def grouped(state, estimates, stamp_s, cfg):
+        def grouped(state, estimates, stamp_s, cfg, shift_en_m=None):
+            if shift_en_m is not None:       # a fit took over from the pose (session 58): before its frame
+                events.append(("shift", shift_en_m, stamp_s))
             events.append(("frame", estimates, stamp_s))
-            return grouping(state, estimates, stamp_s, cfg)
+            return grouping(state, estimates, stamp_s, cfg, shift_en_m)
 
         on_truth, on_crowds = team.scorer.on_truth, team.scorer.on_crowds
         taps = {on_truth: lambda k, t: (events.append(("truth", k, t)), on_truth(k, t)),
@@ -71,10 +74,13 @@ def replay(path: str, fields: dict, adjust=None) -> Scoreboard:
         rec = pickle.load(f)
     cfg = GroupingConfig(**{"confirm_hits": rec["confirm_hits"], **fields})
     frame, scorer, state, reported = rec["frame"], BusScorer(rec["scored_in"], Scoreboard()), GroupingState(), []
-    truths = []
+    truths, shift = [], None
     for kind, key_or_estimates, msg_or_stamp in rec["events"]:
-        if kind == "frame":
-            state, reported = report_crowds(state, key_or_estimates, msg_or_stamp, cfg)
+        if kind == "shift":
+            shift = key_or_estimates
+        elif kind == "frame":
+            state, reported = report_crowds(state, key_or_estimates, msg_or_stamp, cfg, shift)
+            shift = None
             if adjust is not None:
                 reported = adjust(msg_or_stamp, reported, truths, scorer)
         elif kind == "truth":
@@ -93,13 +99,19 @@ def cpu_time(out_dir: str) -> None:
     for p in sorted(glob.glob(os.path.join(out_dir, "*.pkl"))):
         with open(p, "rb") as f:
             rec = pickle.load(f)
-        frames.append((GroupingConfig(confirm_hits=rec["confirm_hits"]),
-                       [(e, s) for kind, e, s in rec["events"] if kind == "frame"]))
+        run, shift = [], None
+        for kind, e, s in rec["events"]:
+            if kind == "shift":
+                shift = e
+            elif kind == "frame":
+                run.append((e, s, shift))
+                shift = None
+        frames.append((GroupingConfig(confirm_hits=rec["confirm_hits"]), run))
     n, t0 = 0, time.process_time()
     for cfg, run in frames:
         state = GroupingState()
-        for estimates, stamp_s in run:
-            state, _ = report_crowds(state, estimates, stamp_s, cfg)
+        for estimates, stamp_s, shift in run:
+            state, _ = report_crowds(state, estimates, stamp_s, cfg, shift)
         n += len(run)
     print(f"report_crowds: {(time.process_time() - t0) / max(n, 1) * 1e6:.0f} us a frame over {n} frames")
 

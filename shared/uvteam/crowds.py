@@ -232,7 +232,7 @@ from .tracking import CrowdTrack, CrowdTracker
 from .vocab import FitQuality
 
 __all__ = ["GroupingConfig", "GroupingState", "Held", "LastSeen", "ReportedCrowd", "Smoothed", "crowd_groups",
-           "report_crowds", "steady_sigma_m", "straight_walk"]
+           "report_crowds", "shifted_state", "steady_sigma_m", "straight_walk"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -877,8 +877,14 @@ def _partly_seen(r: ReportedCrowd, ls: LastSeen | None, stamp_s: float, cfg: Gro
 
 
 def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], stamp_s: float,
-                  cfg: GroupingConfig = GroupingConfig()) -> tuple[GroupingState, list[ReportedCrowd]]:
-    """Track this frame's estimates, join the parts of each crowd; the confirmed crowds, longest-seen first."""
+                  cfg: GroupingConfig = GroupingConfig(), shift_en_m: tuple[float, float] | None = None
+                  ) -> tuple[GroupingState, list[ReportedCrowd]]:
+    """Track this frame's estimates, join the parts of each crowd; the confirmed crowds, longest-seen first.
+    ``shift_en_m``: this frame's estimates are placed so much off where the last frame's placement would have
+    put them (a landmark fit taking over from the camera's pose, ``StepResult.placement_shift_en_m``): what is
+    carried from the last frames is moved with them first (:func:`shifted_state`)."""
+    if shift_en_m is not None:
+        state = shifted_state(state, *shift_en_m)
     en = np.array([[c.east_m, c.north_m] for c in estimates]).reshape(-1, 2)
     tracker, trk = state.tracker.update(en, stamp_s)
     boxes_all = _boxes_en(estimates)
@@ -963,6 +969,34 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     out, smoothed = _smoothed(state.smoothed, out, fast_of, stamp_s, cfg)
     return GroupingState(tracker, apart, streak, holds, last_seen, alias, drifted & apart, joined, crowd_of,
                          inside, still_two, smoothed, in_parts), out
+
+
+def shifted_state(state: GroupingState, d_east_m: float, d_north_m: float) -> GroupingState:
+    """``state`` with every place it carries moved by (``d_east_m``, ``d_north_m``): the tracks and their trails,
+    the crowds as last seen and their walks, those their blobs hold, and the filters. The placement changed under
+    them (the camera's pose, off by its bias, gave way to a landmark fit: real-alt120-lm6-gnss1-pose's tuning seeds
+    174-180 at 0.7-1.0 s, 3-6 m): moved with it, a crowd's track takes its next estimate, not a new track that
+    reports it afresh after ``confirm_hits`` frames under a new id."""
+    d = np.array([d_east_m, d_north_m])
+
+    def crowd(r: ReportedCrowd) -> ReportedCrowd:
+        c = r.estimate
+        return replace(r, estimate=replace(c, east_m=c.east_m + d_east_m, north_m=c.north_m + d_north_m,
+                                           footprint_en_m=c.footprint_en_m + d),
+                       track=r.track.shifted(d_east_m, d_north_m))
+
+    def seen(ls: LastSeen) -> LastSeen:
+        return replace(ls, crowd=crowd(ls.crowd), en_m=(ls.en_m[0] + d_east_m, ls.en_m[1] + d_north_m))
+
+    def filt(f: Smoothed) -> Smoothed:
+        x = f.x.copy()
+        x[:2] += d
+        return replace(f, x=x)
+
+    tracker = replace(state.tracker, tracks=tuple(t.shifted(d_east_m, d_north_m) for t in state.tracker.tracks))
+    return replace(state, tracker=tracker, last_seen={k: seen(v) for k, v in state.last_seen.items()},
+                   inside={k: tuple(seen(v) for v in vs) for k, vs in state.inside.items()},
+                   smoothed={k: filt(v) for k, v in state.smoothed.items()})
 
 
 def _parts_apart(parts: list[CrowdEstimate]) -> tuple[float, float, float] | None:

@@ -197,6 +197,7 @@ class LocalizerState:
     pose_bias_n: int = 0                    # frames it was learnt from
     landmark_chi2: float = 1.0              # the fits' residuals over those the declared noise predicts (mean)
     landmark_chi2_n: int = 0                # fits with residual freedom it was learnt from
+    placed_by_pose: bool = False            # the last frame's crowds were placed by the camera's pose (POSE)
 
 
 @dataclass(frozen=True, slots=True)
@@ -300,6 +301,9 @@ class StepResult:
     position_source: dict[str, str]         # UGV id -> "fix" | "extrapolated" | "plan"
     fit_age_s: float
     failure: str | None = None
+    # where this frame's crowds are placed less where the camera's pose would have placed them, as it placed the
+    # last frame's (east, north m; their mean): set only in the frame in which a landmark fit takes over from the pose
+    placement_shift_en_m: tuple[float, float] | None = None
 
 
 def _interp_path(stamps: np.ndarray, en: np.ndarray, t: float, i: int | None = None) -> np.ndarray:
@@ -816,16 +820,21 @@ def localize_step(state: LocalizerState, obs: FrameObservation, tracks: Mapping[
                              obs.sigma_crowd_blob_frame_px if cfg.sigma_target_px is None else None, own_pose)
     fresh = fit.fit is not None and fit.quality != FitQuality.HELD
     xy = obs.blobs.xy_px
+    shift = None
+    if state.placed_by_pose and crowds and fit.fit is not None and prior is not None and prior.source == "pose":
+        at = prior.px_to_ground(xy[[c.blob_index for c in crowds]])
+        shift = tuple(float(v) for v in (np.array([[c.east_m, c.north_m] for c in crowds]) - at).mean(0))
     new_state = replace(
         state, interval_start_s=pairing.interval_start_s,
         blob_px_of_ugv=tuple((u, *xy[j].tolist()) for u, j in sorted(pairing.blob_of_ugv.items())),
         last_fit=fit.fit if fresh else state.last_fit, last_fit_stamp_s=t if fresh else state.last_fit_stamp_s,
-        last_fit_sigma_m=fit.sigma_m if fresh else state.last_fit_sigma_m)
+        last_fit_sigma_m=fit.sigma_m if fresh else state.last_fit_sigma_m,
+        placed_by_pose=fit.quality == FitQuality.POSE if crowds else state.placed_by_pose)
     if fresh and obs.pose is not None and fit.quality != FitQuality.SUSPECT:
         new_state = learn_pose_bias(new_state, fit.fit, obs.pose, cfg)
     if fresh and cfg.learn_landmark_noise:
         new_state = learn_landmark_noise(new_state, fit.fit, np.array([lm_px[u] for u in fit.used]),
                                          np.array([positions[u].en_m for u in fit.used]), s_lm, fit.sigma_m, cfg)
     result = StepResult(t, fit.quality, crowds, fit.used, fit.outliers, pairing.blob_of_ugv,
-                        {u: p.source for u, p in positions.items()}, fit.age_s, fit.failure)
+                        {u: p.source for u, p in positions.items()}, fit.age_s, fit.failure, shift)
     return new_state, result

@@ -31,6 +31,11 @@ class CrowdTrack:
     trail: tuple[tuple[float, float, float], ...] = ()   # (stamp s, east m, north m) of recent estimates, oldest first
     first_s: float = float("nan")                         # stamp of its first estimate
 
+    def shifted(self, d_east_m: float, d_north_m: float) -> "CrowdTrack":
+        """The track moved by (``d_east_m``, ``d_north_m``), its trail with it (a new frame of placement)."""
+        return replace(self, east_m=self.east_m + d_east_m, north_m=self.north_m + d_north_m,
+                       trail=tuple((t, e + d_east_m, n + d_north_m) for t, e, n in self.trail))
+
     def predicted(self, stamp_s: float) -> tuple[float, float]:
         """(east m, north m) at ``stamp_s`` at the track's velocity."""
         dt = stamp_s - self.stamp_s

@@ -137,6 +137,31 @@ def test_fewer_than_four_landmarks_place_the_crowd_by_the_pose_with_an_honest_ra
     assert 1.0 < np.hypot(c.east_m - crowd[0], c.north_m - crowd[1]) <= c.radius95_m
 
 
+def test_the_frame_a_fit_takes_over_from_the_pose_says_how_far_its_crowds_moved():
+    # placed by the pose (three UGVs, nothing learnt: off by the pose's error), then by a fit on six: that frame's
+    # result says where its crowds are less where the pose, as it placed the frames before, would have put them;
+    # no other frame does (the crowd grouping moves what it carries by it: tests/unit/test_crowds.py)
+    cfg = LocalizerConfig()
+    true_pose, told = CameraPose(0.0, 0.0, 60.0, yaw_deg=10.0), CameraPose(1.5, -1.0, 60.0, yaw_deg=12.0)
+    prior = pose_prior(report_of(told), FRAME, 1280, 720, CAM.focal_px)
+    tracks = {u: track_at(en) for u, en in RING.items()}
+    three = {u: RING[u] for u in list(RING)[:3]}
+    crowd, st, shifts = (2.0, 3.0), LocalizerState(), []
+    for k in range(6):
+        ugvs = three if k < 3 else RING
+        st, res = localize_step(st, obs_of(0.5 + 0.1 * k, true_pose, ugvs, crowd, with_pose=prior),
+                                {u: tracks[u] for u in ugvs}, cfg)
+        assert res.quality == (FitQuality.POSE if k < 3 else FitQuality.LEAST_SQUARES) and len(res.crowds) == 1
+        shifts.append(res.placement_shift_en_m)
+        if k == 2:
+            by_pose = np.array([res.crowds[0].east_m, res.crowds[0].north_m])
+        if k == 3:
+            by_fit = np.array([res.crowds[0].east_m, res.crowds[0].north_m])
+    assert shifts[:3] == [None] * 3 and shifts[4:] == [None] * 2
+    assert np.hypot(*(by_pose - crowd)) > 1.0                   # the pose's error, nothing learnt
+    assert np.allclose(shifts[3], by_fit - by_pose, atol=1e-6)  # the same blob, the same place: the whole jump
+
+
 def test_a_ugv_whose_own_blob_is_a_piece_claims_the_rest_of_it_but_not_a_crowd_it_drives_by():
     # measured (real-alt60-lm6-gnss1 seed 4, 4.4 s): ugv1's label sat on a 1.6 m2 blob, the rest of the
     # moving vehicle (6.4 m2, crowd-sized) 2.4 m beside it, and its own blob excused the claim: the rest

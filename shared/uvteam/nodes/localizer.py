@@ -230,7 +230,8 @@ class LocalizerNode:
         t0 = time.perf_counter()
         self.state, res = localize_step(self.state, self.observation(det), self.tracks(), self.core)
         # the longest-seen crowd first: a UGV that follows one crowd follows that one
-        self.grouping, reported = report_crowds(self.grouping, res.crowds, det.stamp_s, self.grouping_cfg)
+        self.grouping, reported = report_crowds(self.grouping, res.crowds, det.stamp_s, self.grouping_cfg,
+                                                res.placement_shift_en_m)
         msg = Crowds(self.cfg.id, det.vehicle, det.stamp_s, res.quality.value, res.landmarks_used,
                      res.outlier_landmarks, tuple(crowd_message(self.frame, r) for r in reported))
         self.step_us.append((time.perf_counter() - t0) * 1e6)
