@@ -203,21 +203,21 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    learns from the blob's places (``smooth_bias_m_s``: 2-8 % slow as shipped, which at paper-fig7-alt50's 3.1 m/s
    left the crowd 0.1-0.2 m behind), the blob's place also ``smooth_blob_sigma_m`` off its crowd, white from frame to
    frame, and, while the blob loses moving pixels, off by an offset that lasts (a state of the filter, spreading by
-   ``smooth_lost_offset`` half-diagonals of the crowd's footprint per unit of log moving pixels lost, going back to
-   none over ``smooth_blob_tau_s``), and walkers that join or leave the blob start nothing afresh: a blob that drifts
-   as walkers go out of sight (a canopy, ground of their own shade) no longer takes its crowd with it, since the
-   walkers themselves do not drift. The lasting offset is session 58's: real-alt60-lm6 seed 175 at 25.6-28.8 s,
-   walkers going out of sight under a roof (the blob's moving pixels 4,800 -> 3,200), the blob's place drifted east
-   of them at 0.75 m/s for 3 s while their velocity was measured right, and the filter took the drift for its crowd's
-   pace (3.3 m off; 2.6 m with it). An offset that lasts whatever the blob's pixels do (session 57) took the walkers'
-   velocity measured slow at 3.1 m/s for an offset too (paper-fig7-alt50 0.481 -> 0.576 m); one that spreads only
-   while pixels are lost leaves a steady gap to the bias (docs/results-worlds.md, session 58). Its radius is as
-   without: the filter takes out the blob's drift, not the steady offset the radius holds (a radius narrowed by a
-   share of that part held the truth in 0.68 of frames on paper-fig9-color-lm4, whose crowds' error is that offset;
-   docs/results-worlds.md, session 51). A filter averages estimates off by one steady error: placed by the camera's
-   pose, a crowd is off by the pose's bias, placed by a landmark fit by the landmarks', so a crowd placed by the one
-   and then the other starts its filter afresh (with the pose's errors, real-alt60-lm6-gnss1-pose, the first fits'
-   crowds were held towards the pose's bias).
+   ``smooth_lost_offset`` half-diagonals of the crowd's footprint per unit of log moving pixels lost, but not while
+   step 7 takes the crowd for partly seen, going back to none over ``smooth_blob_tau_s``), and walkers that join or
+   leave the blob start nothing afresh: a blob that drifts as walkers go out of sight (a canopy, ground of their own
+   shade) no longer takes its crowd with it, since the walkers themselves do not drift. The lasting offset is session
+   58's: real-alt60-lm6 seed 175 at 25.6-28.8 s, walkers going out of sight under a roof (the blob's moving pixels
+   4,800 -> 3,200), the blob's place drifted east of them at 0.75 m/s for 3 s while their velocity was measured
+   right, and the filter took the drift for its crowd's pace (3.3 m off; 2.6 m with it). An offset that lasts
+   whatever the blob's pixels do (session 57) took the walkers' velocity measured slow at 3.1 m/s for an offset too
+   (paper-fig7-alt50 0.481 -> 0.576 m); one that spreads only while pixels are lost leaves a steady gap to the bias
+   (docs/results-worlds.md, session 58). Its radius is as without: the filter takes out the blob's drift, not the
+   steady offset the radius holds (a radius narrowed by a share of that part held the truth in 0.68 of frames on
+   paper-fig9-color-lm4, whose crowds' error is that offset; docs/results-worlds.md, session 51). A filter averages
+   estimates off by one steady error: placed by the camera's pose, a crowd is off by the pose's bias, placed by a
+   landmark fit by the landmarks', so a crowd placed by the one and then the other starts its filter afresh (with the
+   pose's errors, real-alt60-lm6-gnss1-pose, the first fits' crowds were held towards the pose's bias).
 """
 
 from __future__ import annotations
@@ -1123,8 +1123,8 @@ def _smoothed(prev: Mapping[int, Smoothed], crowds: list[ReportedCrowd], fast_of
         by_pose = c.quality == FitQuality.POSE
         if f is not None and f.by_pose != by_pose:   # the steady error its estimates share changed: afresh
             f = None
-        quick, slow = _area_means(f, c.area_px, stamp_s, cfg)
-        f = _filter_step(f, r, sigma_m, stamp_s, cfg, max(slow - quick, 0.0))
+        quick, slow = _area_means(f, c.area_px, stamp_s, cfg)   # a crowd partly seen was placed by its walk (step 7)
+        f = _filter_step(f, r, sigma_m, stamp_s, cfg, 0.0 if r.partly_seen else max(slow - quick, 0.0))
         f = replace(f, by_pose=by_pose, noise_m=fast, log_area_fast=quick, log_area_slow=slow)
         kept[r.crowd_id] = f
         left95 = R95_PER_SIGMA * float(np.sqrt((f.P[0, 0] + f.P[1, 1]) / 2.0))
