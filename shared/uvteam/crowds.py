@@ -1230,12 +1230,13 @@ def _carried_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp
     """One Kalman step of a crowd's constant-velocity filter that also takes its walkers' velocity as measured
     (``CrowdEstimate.v_en_m_s``: white noise of ``smooth_sigma_v_m_s`` and ``smooth_spread_k`` times its declared
     spread per axis, plus a bias the filter learns, ``smooth_bias_m_s``; a measurement off the gate is left out)
-    and weighs the blob's place as also off by its offset from the crowd (walkers out of sight or back,
-    ``smooth_blob_sigma_m``; white from frame to frame, or with ``smooth_blob_tau_s`` an offset that lasts, a state
-    of the filter), no frame noise: a blob that drifts as walkers go out of sight does not take the crowd with it,
-    and walkers that join or leave the blob start nothing afresh. The states: :func:`_layout` (the bias kept aside
-    in frames whose velocity was not measured, :func:`_filter_step`, and the offset dropped). A gap, a first
-    estimate, or one off the gate (after ``smooth_skip_frames``) start it afresh."""
+    and weighs the blob's place as also off by its offset from the crowd (walkers out of sight or back): white from
+    frame to frame (``smooth_blob_sigma_m``), and a state of the filter that lasts, spreading by
+    ``smooth_lost_offset`` times ``lost`` (the log of the moving pixels lost, :func:`_area_means`) half-diagonals of
+    the footprint: a blob that drifts as walkers go out of sight does not take the crowd with it, and walkers that
+    join or leave the blob start nothing afresh. The states: :func:`_layout` (the bias kept aside in frames whose
+    velocity was not measured, :func:`_filter_step`, and the offset dropped). A gap, a first estimate, or one off
+    the gate (after ``smooth_skip_frames``) start it afresh."""
     c = r.estimate
     z = np.array([c.east_m, c.north_m])
     zv = np.asarray(c.v_en_m_s, float)
