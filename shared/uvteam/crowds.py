@@ -1192,13 +1192,11 @@ def _layout(cfg: GroupingConfig) -> tuple[int, int | None, int | None]:
     return n, bias, off
 
 
-def _place_rows(n: int, cfg: GroupingConfig) -> np.ndarray:
-    """(2, ``n``): what of a filter's ``n`` states makes its crowd's blob's place: the crowd's, and with the
-    walkers' velocity and ``smooth_lost_offset`` the blob's lasting offset from it."""
-    H = np.zeros((2, n))
-    H[0, 0] = H[1, 1] = 1.0
-    nb, _, off = _layout(cfg)
-    if n == nb and off is not None:
+def _place_rows(n: int, off: int | None) -> np.ndarray:
+    """(2, ``n``): what of :func:`_carried_step`'s ``n`` states makes its crowd's blob's place: the crowd's, and the
+    blob's lasting offset from it where that starts at ``off`` (:func:`_layout`)."""
+    H = np.eye(n)[:2]
+    if off is not None:
         H[0, off] = H[1, off + 1] = 1.0
     return H
 
@@ -1241,8 +1239,7 @@ def _carried_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp
     z = np.array([c.east_m, c.north_m])
     zv = np.asarray(c.v_en_m_s, float)
     nb, bias, off = _layout(cfg)
-    sb2 = cfg.smooth_blob_sigma_m ** 2
-    rp = sigma_m ** 2 + sb2
+    rp = sigma_m ** 2 + cfg.smooth_blob_sigma_m ** 2
     rv = cfg.smooth_sigma_v_m_s ** 2 + (cfg.smooth_spread_k * c.sigma_v_m_s) ** 2
     area = c.area_px
     prior = np.zeros(nb)                         # the variances of the states past the first four, as at a start
@@ -1253,10 +1250,13 @@ def _carried_step(prev: Smoothed | None, r: ReportedCrowd, sigma_m: float, stamp
         m = min(nb, len(prev.x))
         x6[:m], P6[:m, :m] = prev.x[:m], prev.P[:m, :m]
         prev = replace(prev, x=x6, P=P6)
-    Hp = _place_rows(nb, cfg)
+    Hp = _place_rows(nb, off)
     if prev is not None and 0.0 < stamp_s - prev.stamp_s <= SMOOTH_GAP_S:
-        half_m = 0.5 * float(np.hypot(*np.ptp(np.asarray(c.footprint_en_m, float), axis=0)))
-        F, Q = _transition(stamp_s - prev.stamp_s, nb, cfg, cfg.smooth_lost_offset * lost * half_m)
+        offset_sigma_m = 0.0
+        if off is not None and lost > 0.0:   # the footprint's half-diagonal sets the scale of what the loss moves
+            offset_sigma_m = cfg.smooth_lost_offset * lost * 0.5 * float(
+                np.hypot(*np.ptp(np.asarray(c.footprint_en_m, float), axis=0)))
+        F, Q = _transition(stamp_s - prev.stamp_s, nb, cfg, offset_sigma_m)
         x, P = F @ prev.x, F @ prev.P @ F.T + Q
         y = z - Hp @ x
         Hv = np.zeros((2, nb))
