@@ -709,7 +709,9 @@ def _remembered(state: GroupingState, seen_crowds: list[ReportedCrowd], stamp_s:
         # of a track it was known by (its own now, the one it was first, those that took its id)
         mine = {ls.crowd.track.track_id, cid} | {t for t, c in state.alias.items() if c == cid}
         was_part = any(_pair(t, r.track.track_id) in state.joined for t in mine)
-        if r.crowd_id == r.track.track_id and (r.track.first_s > ls.seen_s or was_part):
+        # or one as old as the crowd's own and never reported: its blob's other part from its first frames
+        first = r.track.track_id not in state.crowd_of and r.track.first_s <= ls.crowd.track.first_s
+        if r.crowd_id == r.track.track_id and (r.track.first_s > ls.seen_s or was_part or first):
             alias[r.track.track_id] = cid
             taken.discard(r.crowd_id)
             taken.add(cid)
