@@ -212,6 +212,37 @@ def test_a_vehicle_driving_through_a_crowd_is_carved_out_and_labelled():
     assert np.hypot(*(crowd - (walkers.mean(0) + (4.0 * 5, 0.0)))) < 12
 
 
+def test_crowds_wait_for_the_lagged_test_and_vehicles_do_not():
+    # with lag_s a crowd's blob from the two-frame test alone is its walkers' crescents: none is returned
+    # until frames 2 lag_s back are kept (from the start, and again after a lost registration), while a
+    # carved vehicle's is; a frame rate too low for the lagged test does not hold crowds back for good
+    ground = texture(720, 1280, seed=4)
+    cfg = MotionConfig(merge_px=31, min_area_px=400.0, speckle="neighbours", lag_s=0.2)
+
+    def run(det, stamps, lost_at=None):
+        out = []
+        for k, t in enumerate(stamps):
+            vx, vy = 660 + 2 * k, 200 + 12 * k
+            img = crowd_and_vehicle(ground, k, (vx, vy))
+            if k == lost_at:      # nothing in common with the frame before: no camera motion fitted
+                img = texture(720, 1280, seed=99)
+            b = det.update(img, t, np.array([[vx, vy]], float), 22.0)
+            out.append((b.warming, sorted(b.carved.tolist())))
+        return out
+
+    def crowd(carved):
+        return -1 in carved
+
+    at_10_hz = run(MotionDetector(cfg), [0.1 * k for k in range(8)])
+    assert [w for w, _ in at_10_hz] == [False, True, True] + [False] * 5     # the first frame: nothing to compare
+    assert [c for _, c in at_10_hz[1:3]] == [[0], [0]] and all(crowd(c) and 0 in c for _, c in at_10_hz[3:])
+    lost = run(MotionDetector(cfg), [0.1 * k for k in range(14)], lost_at=6)
+    assert crowd(lost[5][1]) and lost[6] == lost[7] == (False, [])        # the odd frame, and the one after it
+    assert lost[8:11] == [(True, [0])] * 3 and all(not w and crowd(c) for w, c in lost[11:])
+    slow = run(MotionDetector(cfg), [0.5 * k for k in range(5)])          # 2 Hz: no frame 0.2 s back, ever
+    assert all(not w and crowd(c) and 0 in c for w, c in slow[1:])
+
+
 def test_a_vehicle_whose_point_lies_just_off_a_crowd_s_blob_is_carved_out_of_it():
     # the vehicle drives along the crowd's lower edge and only its body moved (on real ground its lower
     # half can match the ground's shade): its point, the label's centre, lies just below the blob's box
@@ -499,7 +530,11 @@ def test_a_threshold_from_noise_and_gradient_sees_a_faint_walker_and_no_shimmer(
     from uvteam.vision.uav import UavVisionConfig
     cfg = UavVisionConfig(focal_px=790.0, colors=("red",)).motion
     assert cfg.gradient_gain > 0
-    for b, (x, y) in _flat_and_textured_frames(cfg):
+    frames = _flat_and_textured_frames(cfg)
+    # no crowd until the lagged test runs, from the frame 0.3-0.4 s after the first (0.1 s apart)
+    warm = [b.warming for b, _ in frames]
+    assert warm[0] and not any(warm[2:]) and all(len(b) == 0 for b, _ in frames if b.warming)
+    for b, (x, y) in frames[warm.count(True):]:
         assert len(b) == 1
         assert abs(b.xy_px[0, 0] - x) < 8 and abs(b.xy_px[0, 1] - y) < 3      # its size and a step
 

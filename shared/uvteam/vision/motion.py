@@ -37,7 +37,12 @@ Per frame (:meth:`MotionDetector.update`), on a copy scaled by ``process_scale``
    the frame ``lag_s`` ago and from the one twice as long ago (:meth:`MotionDetector._lagged_moving`):
    a slow walker of little contrast changes only a thin crescent between two frames, but its whole
    shape where it is now, and not where it was, after a few. As a pixel must pass both comparisons,
-   each has its own, lower floor and noise factor (``lag_diff_floor``, ``lag_noise_k``);
+   each has its own, lower floor and noise factor (``lag_diff_floor``, ``lag_noise_k``). Until frames
+   that far back are kept (a detector's first ``2 lag_s`` or so, and after a lost registration) only
+   vehicles' blobs are returned (:attr:`MotionResult.warming`): a crowd's blob from the two-frame test
+   alone is its walkers' crescents, and grows by a fifth or more, and may split, in the frame the
+   lagged test starts, so a crowd first seen before that was known by a part of it (desert and
+   real-alt120-lm6 fresh seeds 203 and 207: 3.2-3.4 m off at 0.4-0.5 s);
 4. a motion history: the pixels that moved in the last ``history_s`` seconds, warped along with the
    camera so it stays registered, so that a crowd whose members move little per frame stays one blob
    (only the box around recent motion is warped: the rest is "long ago" and stays so);
@@ -259,6 +264,7 @@ class MotionResult:
     blobs: Blobs
     carved: np.ndarray         # (N,) the carve point a vehicle's blob belongs to, else -1
     registration: Registration
+    warming: bool = False      # the lagged test not yet run (step 3): vehicles' blobs only
 
     @staticmethod
     def empty(registration: Registration | None = None) -> "MotionResult":
@@ -574,6 +580,7 @@ class MotionDetector:
         self._pending: _Registered | None = None   # this frame, registered ahead of update()
         # the frames before this one, for step 3's lagged test: (stamp, processed frame, H onto this frame)
         self._older: list[tuple[float, np.ndarray, np.ndarray]] = []
+        self._since_s: float | None = None       # the frame the motion history (re)started from
         # where the warps' source maps are written: this frame's camera motion's (kept through update()),
         # and the lagged test's (one comparison at a time)
         self._maps_now: dict = {}
@@ -596,6 +603,7 @@ class MotionDetector:
         self._followed = {}
         self._pending = None
         self._older = []
+        self._since_s = None
         self._walk = []
 
     def moved_near(self, xy_px: np.ndarray) -> np.ndarray | None:
@@ -665,18 +673,24 @@ class MotionDetector:
             self._age_box = self._cut_age = self._cut_box = None
             self._followed = {}
             self._older = []
+            self._since_s = stamp_s
             self._walk = []
             return MotionResult.empty(reg)
         h, w = curr.shape
         warp = _warper(reg.H_curr_from_prev, w, h, self._maps_now)
         curr_range = _local_range(curr) if self.cfg.gradient_gain > 0 else None
         moving = self._moving(prev, curr, reg.H_curr_from_prev, warp, curr_range)
-        cut = None
+        cut, warming = None, False
         if self.cfg.lag_s > 0:
             self._keep_older(prev, reg.H_curr_from_prev, stamp_s, dt_s)
             cut, self._cut_age, self._cut_box = self._aged(moving, warp, reg.H_curr_from_prev, dt_s,
                                                            self._cut_age, self._cut_box)
-            moving = cv2.bitwise_or(moving, self._lagged_moving(curr, curr_range, stamp_s))
+            lagged = self._lagged_moving(curr, curr_range, stamp_s)
+            # not yet run for want of older frames since the history began (not for a frame rate too low)
+            warming = (lagged is None and self._since_s is not None
+                       and stamp_s - self._since_s < 2.0 * self.cfg.lag_s)
+            if lagged is not None:
+                moving = cv2.bitwise_or(moving, lagged)
         recent = self._history(moving, warp, reg.H_curr_from_prev, dt_s)
         if cut is None:
             cut = recent
@@ -706,7 +720,9 @@ class MotionDetector:
             vehicles = np.empty((0, 2)) if carve_xy_px is None else np.asarray(carve_xy_px, float).reshape(-1, 2)
             blobs = self._with_velocity(blobs, carved_a, p.grey, reg.H_curr_from_prev, stamp_s, recent, vehicles,
                                         carve_radius_px)
-        return MotionResult(blobs, carved_a, reg)
+        if warming:     # step 3 not yet whole: no crowd's blob (its history and velocity go on being kept)
+            blobs, carved_a = blobs[carved_a >= 0], carved_a[carved_a >= 0]
+        return MotionResult(blobs, carved_a, reg, warming)
 
     def _with_velocity(self, blobs: Blobs, carved: np.ndarray, grey: np.ndarray, M: np.ndarray, stamp_s: float,
                        recent: np.ndarray, vehicles: np.ndarray, vehicle_radius_px: float) -> Blobs:
@@ -799,6 +815,7 @@ class MotionDetector:
             self._kept = self._age_box = self._last_H = self._older_H = self._cut_age = self._cut_box = None
             self._busy = None
             self._older = []
+            self._since_s = stamp_s
             self._walk = []
         else:
             reg = self._register(prev_c, curr_c, self._busy)
@@ -922,7 +939,7 @@ class MotionDetector:
         self._older = _carried_on(self._older, M, stamp_s, keep_s)
         self._older.append((stamp_s - dt_s, prev, M))
 
-    def _lagged_moving(self, curr: np.ndarray, curr_range: np.ndarray | None, stamp_s: float) -> np.ndarray:
+    def _lagged_moving(self, curr: np.ndarray, curr_range: np.ndarray | None, stamp_s: float) -> np.ndarray | None:
         """Step 3's lagged test: where this frame differs both from the frame ``lag_s`` ago and from the one
         twice as long ago (the kept frames nearest those times), each by step 3's per-pixel test. A walker
         of little contrast that moves a pixel a frame changes only the crescent it steps into between two
@@ -930,16 +947,16 @@ class MotionDetector:
         differs from both frames where it is now, and where it was from one only (no ghost behind it).
         The box test is left out here: a whole shape's pixels pass alone (with it, on tuning seeds 1-3, the
         paper's 200 m scenario was 0.054 m worse and the real-imagery worlds within 0.01 m;
-        docs/results-worlds.md, session 32). Nothing (all zero) until frames that far back are kept."""
+        docs/results-worlds.md, session 32). None until frames that far back are kept."""
         h, w = curr.shape
         lag = self.cfg.lag_s
         out, used_s = None, stamp_s
         if not self._older:
-            return np.zeros((h, w), np.uint8)
+            return None
         for want_s in (lag, 2.0 * lag):
             t, old, H = min(self._older, key=lambda e: abs(stamp_s - e[0] - want_s))
             if stamp_s - t < 0.75 * want_s or t >= used_s:
-                return np.zeros((h, w), np.uint8)
+                return None
             used_s = t
             warped = _warper(H, w, h, self._maps_lagged)(old, cv2.INTER_LINEAR, 0)
             valid = self._seen_by(H, w, h)
