@@ -6,6 +6,7 @@ bus only, as the other vehicles would.
 
 import math
 
+import cv2
 import numpy as np
 import pytest
 
@@ -301,6 +302,20 @@ def test_uav_relabels_the_sensor_model_by_ugv_id_and_drops_other_teams_colors():
     (d,) = out
     assert d.landmarks.ugv == ("ugv2", "ugv1") and d.blobs.ugv == ("ugv1", "", "")
     assert d.sigma_crowd_blob_px == 1.5      # the detector's declared noise travels on
+
+
+def test_uav_counts_the_frames_its_motion_detector_warms_up_in():
+    """The pixel pipeline returns no crowd's blob until its motion detector's lagged test runs (frames
+    0.3-0.4 s back): those frames are counted in the status, and only those."""
+    ap = MemoryAutopilot()
+    node = UavNode(VehicleConfig(TEAM, "uav1", "uav", uav=UavConfig()), InMemoryBus(InMemoryBus()), ap, Clock(T0))
+    ground = cv2.GaussianBlur(np.random.default_rng(1).integers(0, 255, (380, 680)).astype(np.uint8), (0, 0), 1.5)
+    for i in range(8):
+        t = T0 + 0.1 * i
+        ap.set_state(state(t, (0.0, 0.0), alt_agl_m=60.0))
+        img = cv2.cvtColor(np.ascontiguousarray(ground[10:370, 10 + i:650 + i]), cv2.COLOR_GRAY2BGR)
+        assert node.process_frame(t, i, img) is not None
+    assert node.metrics()["processed"] == 8 and node.metrics()["motion_warming"] in (2, 3)
 
 
 def test_uav_waits_for_the_autopilot_quietly_then_warns(caplog):

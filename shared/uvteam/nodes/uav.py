@@ -13,7 +13,9 @@ The camera's pose (:meth:`UavNode.pose_report`: the autopilot's position, height
 fixed mount, attitude; the mounting and the sigmas from ``[uav]``) goes with every frame's detections.
 With the team's fixes (subscribed) it also tells the vision where each UGV's roof label must be
 (:meth:`UavNode.expectations`): a label-colored patch on the ground elsewhere is never taken for a UGV;
-why a color's blobs were refused is counted in the status (``labels_refused_<why>``).
+why a color's blobs were refused is counted in the status (``labels_refused_<why>``). Frames the motion
+detector returns no crowd's blob for while its history (re)starts are counted as ``motion_warming``
+(a few after the first frame, and after each lost camera registration: :mod:`uvteam.vision.motion`).
 """
 
 from __future__ import annotations
@@ -221,6 +223,8 @@ class UavNode:
         self.vision_ms.append((time.perf_counter() - t0) * 1e3)
         for why in r.refused.values():
             self.refusals.add(why)
+        if r.warming:     # no crowd's blob: the motion detector (re)starting its history
+            self.counts.add("motion_warming")
         noise = pixel_pipeline_noise(st.alt_agl_m, focal)
         det = Detections(self.cfg.id, stamp_s, seq, w, h, st.alt_agl_m, focal,
                          r.landmarks.relabel(self.u.colors), r.blobs.relabel(self.u.colors),

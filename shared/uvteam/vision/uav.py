@@ -81,6 +81,7 @@ class UavFrameResult:
     blobs: Blobs                  # ``ugv``: the roof color of the vehicle a blob is, or ""
     registration: Registration    # the camera motion the blobs rest on
     refused: dict = field(default_factory=dict)   # color -> why its label-colored blobs were not taken
+    warming: bool = False         # the motion detector's lagged test not yet run: vehicles' blobs only
 
 
 def landmark_config(cfg: UavVisionConfig, alt_agl_m: float) -> LandmarkConfig:
@@ -139,7 +140,7 @@ class UavVision:
         lms = Landmarks.from_dict(chosen)
         motion = self._motion.update(frame_bgr, stamp_s, lms.xy_px, self.cfg.vehicle_radius_m * px_per_m, lms.ugv)
         blobs = replace(motion.blobs, ugv=tuple(lms.ugv[c] if c >= 0 else "" for c in motion.carved))
-        return UavFrameResult(stamp_s, lms, blobs, motion.registration, refused)
+        return UavFrameResult(stamp_s, lms, blobs, motion.registration, refused, motion.warming)
 
     def _reach_px(self, stamp_s: float, since_s: float, px_per_m: float) -> float:
         return (MAX_UGV_SPEED_M_S * max(stamp_s - since_s, 0.0) + 2.0 * self.cfg.label_side_m) * px_per_m
