@@ -79,7 +79,8 @@ keep their offset, two crowds drift together or apart. So each frame (:func:`rep
    alone it is none, unless it holds ``seen_whole`` of what the crowd's parts had when it was last seen in
    two or more: their blobs become one on a new track, :func:`_whole_anew`); a crowd is the area-weighted
    mean of its parts (the detector's moving pixels), its footprint the box round theirs, its 95 % radius
-   the largest of theirs, reported under its longest-seen part's track (id, velocity). A crowd whose blob
+   the largest of theirs, reported under its longest-seen part's track (id, velocity; of parts seen as
+   often, the crowd's own, else the biggest: :func:`_lead_key`). A crowd whose blob
    is not known yet (its first ``confirm_hits`` frames reported, :func:`_unknown_blob`) has no footprint
    to go by: parts seen once less than
    ``confirm_hits`` whose nearest confirmed part is one of it, within ``near_m``, are its (:func:`_starting_parts`;
@@ -940,7 +941,7 @@ def report_crowds(state: GroupingState, estimates: tuple[CrowdEstimate, ...], st
     anew: dict[int, int] = {}    # a crowd seen whole on young tracks alone: their lead's track -> the crowd's id
     seen_ids = {state.crowd_of.get(trk[k].track_id, trk[k].track_id) for k in confirmed}
     for members in groups.values():
-        lead = min(members, key=lambda k: (-trk[k].hits, trk[k].track_id))
+        lead = min(members, key=lambda k: _lead_key(state, trk[k], estimates[k]))
         if not any(k in confirmed for k in members):    # young parts join a crowd; alone they are none
             if (cid := _whole_anew(state, estimates, members, trk[lead].track_id, young, seen_ids, cfg)) is None:
                 continue
@@ -1398,6 +1399,16 @@ def _whole_anew(state: GroupingState, estimates: tuple[CrowdEstimate, ...], memb
         return None
     whole = max(ls.crowd.estimate.area_px, ls.usual_px()) if ls.crowd.partly_seen else ls.crowd.estimate.area_px
     return cid if sum(estimates[k].area_px for k in members) >= cfg.seen_whole * whole else None
+
+
+def _lead_key(state: GroupingState, track: CrowdTrack, estimate: CrowdEstimate) -> tuple:
+    """Sort key of a crowd's part to report it under (step 5): the longest seen; of parts seen as often, the
+    crowd's own track (the one its id is), else, reported in no crowd yet, the biggest. Parts first seen in
+    one frame tie for as long as both are seen (a crowd first seen when the motion detector's lagged test
+    starts: :mod:`uvteam.vision.motion`); the track's id broke the tie, and the two-crowd world's fresh seed
+    211 was reported under the track of a crowd's straggler, which later parted from it (16 id changes)."""
+    own = state.crowd_of.get(track.track_id)
+    return (-track.hits, own != track.track_id, -estimate.area_px if own is None else 0.0, track.track_id)
 
 
 def _unknown_blob(state: GroupingState, track: CrowdTrack, cfg: GroupingConfig) -> bool:

@@ -634,6 +634,29 @@ def test_a_crowd_first_seen_in_two_parts_keeps_its_id_as_its_blob_parts_and_heal
     assert len(ids) >= 34 and len(set(ids)) == 1
 
 
+def test_parts_first_seen_together_are_reported_under_the_biggest():
+    # the two-crowd world's fresh seed 211 with the detector's warm-up: a crowd of 5,400 moving pixels and a
+    # small one of 1,400 beside it first seen in one frame, joined as one crowd (the small one a straggler),
+    # then walking apart. The joined crowd is reported under the big part's track, not the one that happened
+    # to get the lower id: the big crowd keeps its id when the small one parts from it
+    rng = np.random.default_rng(1)
+    state, joined_ids, big_ids = GroupingState(), set(), set()
+    for f in range(100):
+        t = f / 10
+        big = (-12.5 + 1.0 * t, 23.7)
+        small = (-26.0 + 1.0 * t - 1.2 * max(t - 3.0, 0.0), 36.0 + 1.2 * max(t - 3.0, 0.0))
+        parts = [(*small, 1400.0, 3.5), (*big, 5400.0, 7.0)]      # the small one first: its track's id is lower
+        ests = tuple(estimate(x + rng.normal(0, 0.2), y + rng.normal(0, 0.2), a, half=h) for x, y, a, h in parts)
+        state, out = report_crowds(state, ests, T0 + t, STEPS)
+        if 5 <= f < 15:
+            (r,) = out
+            joined_ids.add(r.crowd_id)
+        elif f >= 40:
+            assert len(out) == 2
+            big_ids.update(r.crowd_id for r in out if r.estimate.area_px > 5000)
+    assert len(joined_ids) == 1 and joined_ids == big_ids
+
+
 def test_two_crowds_whose_blobs_now_and_then_merge_are_reported_as_the_merged_blob():
     # A and B, known apart (20 m), close in to 10 m by t = 10 s; then for 4 s the detector sees them as
     # one blob (centre between them, 5 m from each: past the tracker's gate) in two frames of every four,
