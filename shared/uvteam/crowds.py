@@ -1406,7 +1406,8 @@ def _lead_key(state: GroupingState, track: CrowdTrack, estimate: CrowdEstimate) 
     crowd's own track (the one its id is), else, reported in no crowd yet, the biggest. Parts first seen in
     one frame tie for as long as both are seen (a crowd first seen when the motion detector's lagged test
     starts: :mod:`uvteam.vision.motion`); the track's id broke the tie, and the two-crowd world's fresh seed
-    211 was reported under the track of a crowd's straggler, which later parted from it (16 id changes)."""
+    211 was reported under the track of a crowd's straggler, which later parted from it (the world's seeds
+    209-215 replayed with the warm-up: 63 id changes, 47 with this key and without the warm-up)."""
     own = state.crowd_of.get(track.track_id)
     return (-track.hits, own != track.track_id, -estimate.area_px if own is None else 0.0, track.track_id)
 
