@@ -10,6 +10,7 @@ import pickle
 import sys
 import time
 
+from grouping_replay import recorded_events
 from uvteam.crowds import GroupingConfig, GroupingState, report_crowds
 
 
@@ -18,9 +19,9 @@ def per_frame_us(recordings: list[dict], accel_m_s2: float) -> float:
     for rec in recordings:
         cfg = GroupingConfig(confirm_hits=rec["confirm_hits"], smooth_accel_m_s2=accel_m_s2)
         state = GroupingState()
-        for kind, estimates, stamp_s in rec["events"]:
+        for kind, estimates, stamp_s, shift in recorded_events(rec):
             if kind == "frame":
-                state, _ = report_crowds(state, estimates, stamp_s, cfg)
+                state, _ = report_crowds(state, estimates, stamp_s, cfg, shift)
                 frames += 1
     return (time.perf_counter() - t0) / frames * 1e6
 

@@ -66,6 +66,20 @@ def record(out_dir: str, path: str, seeds: list[int]) -> None:
               flush=True)
 
 
+def recorded_events(rec: dict):
+    """A recording's events as (kind, key or estimates, message or stamp, shift): a frame's with the placement's
+    shift recorded just before it (session 58), None for the others and for a frame without one."""
+    shift = None
+    for kind, a, b in rec["events"]:
+        if kind == "shift":
+            shift = a
+        elif kind == "frame":
+            yield kind, a, b, shift
+            shift = None
+        else:
+            yield kind, a, b, None
+
+
 def replay(path: str, fields: dict, adjust=None) -> Scoreboard:
     """One recording through ``report_crowds`` and the scoring. ``adjust(stamp_s, reported, truths, scorer)``, if
     given, returns each frame's reported crowds changed (``truths``: the truth messages so far) before they are
@@ -74,13 +88,10 @@ def replay(path: str, fields: dict, adjust=None) -> Scoreboard:
         rec = pickle.load(f)
     cfg = GroupingConfig(**{"confirm_hits": rec["confirm_hits"], **fields})
     frame, scorer, state, reported = rec["frame"], BusScorer(rec["scored_in"], Scoreboard()), GroupingState(), []
-    truths, shift = [], None
-    for kind, key_or_estimates, msg_or_stamp in rec["events"]:
-        if kind == "shift":
-            shift = key_or_estimates
-        elif kind == "frame":
+    truths = []
+    for kind, key_or_estimates, msg_or_stamp, shift in recorded_events(rec):
+        if kind == "frame":
             state, reported = report_crowds(state, key_or_estimates, msg_or_stamp, cfg, shift)
-            shift = None
             if adjust is not None:
                 reported = adjust(msg_or_stamp, reported, truths, scorer)
         elif kind == "truth":
@@ -99,13 +110,7 @@ def cpu_time(out_dir: str) -> None:
     for p in sorted(glob.glob(os.path.join(out_dir, "*.pkl"))):
         with open(p, "rb") as f:
             rec = pickle.load(f)
-        run, shift = [], None
-        for kind, e, s in rec["events"]:
-            if kind == "shift":
-                shift = e
-            elif kind == "frame":
-                run.append((e, s, shift))
-                shift = None
+        run = [(e, s, shift) for kind, e, s, shift in recorded_events(rec) if kind == "frame"]
         frames.append((GroupingConfig(confirm_hits=rec["confirm_hits"]), run))
     n, t0 = 0, time.process_time()
     for cfg, run in frames:

@@ -20,6 +20,7 @@ import sys
 
 import numpy as np
 
+from grouping_replay import recorded_events
 from uvteam.crowds import GroupingConfig, GroupingState, _box_gaps_m, _boxes_en, report_crowds
 
 CENTRE_BINS_M = (0, 7, 8, 9, 10, 11, 12, 15, np.inf)
@@ -33,9 +34,9 @@ def frames(path: str):
         rec = pickle.load(f)
     cfg = GroupingConfig(confirm_hits=rec["confirm_hits"])
     state, reported, scored, first = GroupingState(), [], {}, None
-    for kind, a, b in rec["events"]:
+    for kind, a, b, shift in recorded_events(rec):
         if kind == "frame":
-            state, reported = report_crowds(state, a, b, cfg)
+            state, reported = report_crowds(state, a, b, cfg, shift)
             held = [ls.walk_at(b, cfg)[0] for v in state.inside.values() for ls in v]
         elif kind == "truth":
             scored[round(b.stamp_s, 3)] = len(b.crowds)
